@@ -1,0 +1,207 @@
+"""The fast path: one fused Numba kernel that rolls out every sample and scores it.
+
+It computes exactly what the NumPy reference computes (``rollout.py`` + each primitive's ``cost``) for
+the built-in primitives, but without materialising (H, S) arrays and without transcendental calls in the
+hot loop (measured 4-10x faster, see benchmarks/README.md):
+
+- the horizon loop is outside and the sample loop inside, over contiguous per-sample state vectors, so
+  the compiler vectorises it;
+- tan(r_delta * delta) uses its Taylor series: |r_delta * delta| <= 0.1306 after steering saturation,
+  where seven terms are exact to 1e-16;
+- the heading is carried as (cos phi, sin phi) and rotated by the small heading increment each step
+  (series exact to 1e-15 for |dphi| <= 0.1 rad, i.e. speeds up to about 80 m/s), with a first-order
+  renormalisation so it stays a unit vector at any speed.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from agentic_mpc.primitives.base import FusedArrays
+from agentic_mpc.vehicle import VehicleParams
+
+_JIT = {"fastmath": True, "error_model": "numpy", "cache": True, "nogil": True}
+
+
+def pack_params(params: VehicleParams) -> np.ndarray:
+    """The model parameters in the order the kernel reads them."""
+    return np.array(
+        [params.dt_s, params.r_delta, params.slip_gain, 1.0 / params.l_r_m, params.w_a, params.w_b, params.w_v]
+    )
+
+
+@numba.njit(**_JIT)
+def _tan_small(u: float) -> float:
+    u2 = u * u
+    return u * (
+        1.0
+        + u2
+        * (
+            1.0 / 3.0
+            + u2
+            * (
+                2.0 / 15.0
+                + u2 * (17.0 / 315.0 + u2 * (62.0 / 2835.0 + u2 * (1382.0 / 155925.0 + u2 * (21844.0 / 6081075.0))))
+            )
+        )
+    )
+
+
+@numba.njit(**_JIT)
+def _cos_small(d: float) -> float:
+    d2 = d * d
+    return 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0 - d2 * (1.0 / 720.0 - d2 * (1.0 / 40320.0))))
+
+
+@numba.njit(**_JIT)
+def _sin_small(d: float) -> float:
+    d2 = d * d
+    return d * (1.0 - d2 * (1.0 / 6.0 - d2 * (1.0 / 120.0 - d2 * (1.0 / 5040.0 - d2 * (1.0 / 362880.0)))))
+
+
+@numba.njit(**_JIT)
+def rollout_costs(
+    state,
+    params,
+    basis,
+    z_delta,
+    z_ab,
+    track_ref,
+    track_weight,
+    circles,
+    steer_sign,
+    lateral_sign,
+    lateral_ref,
+    lateral_tan,
+    limits,
+    disc_centres,
+    disc_params,
+    edge_ref,
+    edge_tan,
+    edge_params,
+    work,
+    costs,
+):
+    """Total cost of every sample into ``costs`` (S,). ``z_delta``, ``z_ab``: (2L+1, S); ``work``: (7, S)."""
+    n_coef, n_samples = z_delta.shape
+    horizon = basis.shape[1]
+    dt, r_delta, kappa, inv_lr, w_a, w_b, w_v = (
+        params[0], params[1], params[2], params[3], params[4], params[5], params[6]
+    )
+    steer_w, ab_w, v_max, speed_w = limits[0], limits[1], limits[2], limits[3]
+    rate_w, previous_delta, previous_ab = limits[4], limits[5], limits[6]
+    x, y, c, s, v, dcmd, abcmd = work[0], work[1], work[2], work[3], work[4], work[5], work[6]
+    cos0, sin0 = np.cos(state[2]), np.sin(state[2])
+    for i in range(n_samples):
+        x[i] = state[0]
+        y[i] = state[1]
+        c[i] = cos0
+        s[i] = sin0
+        v[i] = state[3]
+        costs[i] = 0.0
+    # Each pass below is a plain loop over samples so that it vectorises; terms are separate passes.
+    for k in range(horizon):
+        b0 = basis[0, k]
+        for i in range(n_samples):
+            dcmd[i] = b0 * z_delta[0, i]
+            abcmd[i] = b0 * z_ab[0, i]
+        for j in range(1, n_coef - 1, 2):  # rows in pairs: half the passes over dcmd/abcmd
+            bj, bj1 = basis[j, k], basis[j + 1, k]
+            for i in range(n_samples):
+                dcmd[i] += bj * z_delta[j, i] + bj1 * z_delta[j + 1, i]
+                abcmd[i] += bj * z_ab[j, i] + bj1 * z_ab[j + 1, i]
+        if n_coef % 2 == 0:
+            bj = basis[n_coef - 1, k]
+            for i in range(n_samples):
+                dcmd[i] += bj * z_delta[n_coef - 1, i]
+                abcmd[i] += bj * z_ab[n_coef - 1, i]
+        for i in range(n_samples):
+            dc = dcmd[i]
+            abc = abcmd[i]
+            over_d = max(abs(dc) - 1.0, 0.0)
+            over_ab = max(abs(abc) - 1.0, 0.0)
+            delta = min(max(dc, -1.0), 1.0)
+            throttle = min(max(abc, 0.0), 1.0)
+            brake = -min(max(abc, -1.0), 0.0)
+            # Dynamics: gamma from tan(gamma) = kappa * tan(r_delta * delta) without atan/tan/sin/cos.
+            g = kappa * _tan_small(r_delta * delta)
+            cos_g = 1.0 / np.sqrt(1.0 + g * g)
+            sin_g = g * cos_g
+            ci = c[i]
+            si = s[i]
+            vi = v[i]
+            xn = x[i] + dt * vi * (ci * cos_g - si * sin_g)
+            yn = y[i] + dt * vi * (si * cos_g + ci * sin_g)
+            d_phi = dt * vi * inv_lr * sin_g
+            cd = _cos_small(d_phi)
+            sd = _sin_small(d_phi)
+            cn = ci * cd - si * sd
+            sn = si * cd + ci * sd
+            norm = 1.5 - 0.5 * (cn * cn + sn * sn)
+            vn = max(0.0, vi + dt * (w_a * throttle + w_b * brake + w_v * vi))
+            over_v = max(vn - v_max, 0.0)
+            x[i] = xn
+            y[i] = yn
+            c[i] = cn * norm
+            s[i] = sn * norm
+            v[i] = vn
+            dcmd[i] = delta  # the saturated steering, for the steering-sign term below
+            costs[i] += steer_w * over_d * over_d + ab_w * over_ab * over_ab + speed_w * over_v * over_v
+        if k == 0:  # anti-chatter: the first input against the one applied at the previous step
+            for i in range(n_samples):
+                d_delta = dcmd[i] - previous_delta
+                d_ab = min(max(abcmd[i], -1.0), 1.0) - previous_ab
+                costs[i] += rate_w * (d_delta * d_delta + d_ab * d_ab)
+        # Stage costs on the state after step k (the paper's k + 1).
+        for p in range(steer_sign.shape[0]):
+            sign, weight = steer_sign[p, 0], steer_sign[p, 1]
+            for i in range(n_samples):
+                m = min(0.0, sign * dcmd[i])
+                costs[i] += weight * m * m
+        for t in range(track_ref.shape[0]):
+            rx, ry, weight = track_ref[t, k, 0], track_ref[t, k, 1], track_weight[t]
+            for i in range(n_samples):
+                dx = x[i] - rx
+                dy = y[i] - ry
+                costs[i] += weight * (dx * dx + dy * dy)
+        for o in range(circles.shape[0]):
+            cx, cy, r2, weight = circles[o, 0], circles[o, 1], circles[o, 2], circles[o, 3]
+            for i in range(n_samples):
+                dx = x[i] - cx
+                dy = y[i] - cy
+                costs[i] += weight if dx * dx + dy * dy < r2 else 0.0
+        for p in range(lateral_sign.shape[0]):
+            sign, weight, dead_zone = lateral_sign[p, 0], lateral_sign[p, 1], lateral_sign[p, 2]
+            rx, ry, tx, ty = lateral_ref[p, k, 0], lateral_ref[p, k, 1], lateral_tan[p, k, 0], lateral_tan[p, k, 1]
+            for i in range(n_samples):
+                m = min(0.0, sign * (tx * (y[i] - ry) - ty * (x[i] - rx)) + dead_zone)
+                costs[i] += weight * m * m
+        for o in range(disc_centres.shape[0]):
+            cx, cy, r2, weight = disc_centres[o, k, 0], disc_centres[o, k, 1], disc_params[o, 0], disc_params[o, 1]
+            for i in range(n_samples):
+                dx = x[i] - cx
+                dy = y[i] - cy
+                d2 = dx * dx + dy * dy
+                costs[i] += weight * (2.0 - d2 / r2) if d2 < r2 else 0.0
+        for e in range(edge_ref.shape[0]):
+            ex, ey, tx, ty = edge_ref[e, k, 0], edge_ref[e, k, 1], edge_tan[e, k, 0], edge_tan[e, k, 1]
+            side, margin, weight = edge_params[e, 0], edge_params[e, 1], edge_params[e, 2]
+            for i in range(n_samples):
+                violation = max(0.0, margin + side * (tx * (y[i] - ey) - ty * (x[i] - ex)))
+                costs[i] += weight * violation * violation
+
+
+def fused_costs(
+    state: np.ndarray,
+    params_packed: np.ndarray,
+    basis: np.ndarray,
+    z_delta: np.ndarray,
+    z_ab: np.ndarray,
+    terms: FusedArrays,
+    work: np.ndarray,
+    costs: np.ndarray,
+) -> np.ndarray:
+    """Run the fused kernel on one step's terms; fills and returns ``costs``."""
+    rollout_costs(state, params_packed, basis, z_delta, z_ab, *terms, work, costs)
+    return costs

@@ -1,0 +1,169 @@
+"""Fourier MPPI: sample Fourier coefficients of the input sequences, roll out, weight, average.
+
+One control step (``FourierMPPI.step``):
+
+1. bind the specification to the current state (reference points etc.);
+2. sample S coefficient vectors around the mean, z_s = z_bar + sigma * eps_s, for steering and for
+   throttle/brake (the paper's per-order standard deviations);
+3. synthesise the input sequences, roll out the vehicle model, add up the attached primitives' costs;
+4. w_s = exp(-(J_s - min J) / T), z* = sum w_s z_s / sum w_s;
+5. apply u*(0), the first input of z*, and keep z* as the next step's mean (warm start).
+
+Step 3 runs in the fused Numba kernel when every attached primitive has a fused form, and in plain NumPy
+otherwise (or with ``backend="reference"``). The two agree to float tolerance (tests/controller).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from agentic_mpc.controller import fourier, kernels
+from agentic_mpc.controller.config import MPPIConfig
+from agentic_mpc.controller.rollout import rollout
+from agentic_mpc.primitives.base import Rollouts, StepContext, Surroundings
+from agentic_mpc.primitives.specification import PreparedSpecification, Specification
+from agentic_mpc.vehicle import PAPER_PARAMS, STEER_LIMIT, VehicleParams, split_throttle_brake
+
+
+@dataclass(frozen=True, slots=True)
+class ControlOutput:
+    """The input to apply now and what the optimisation looked like."""
+
+    delta: float
+    throttle: float
+    brake: float
+    cost_min: float
+    """Lowest sampled cost."""
+    effective_samples: float
+    """(sum w)^2 / sum w^2: how many samples really carry the average (1 = one sample dominates)."""
+    solve_ms: float
+    used_fast_path: bool
+
+    @property
+    def inputs(self) -> np.ndarray:
+        return np.array([self.delta, self.throttle, self.brake])
+
+
+class FourierMPPI:
+    """The controller. It knows the vehicle model and the primitives, nothing of SUMO, MCP or the agent."""
+
+    def __init__(
+        self, config: MPPIConfig | None = None, params: VehicleParams = PAPER_PARAMS, seed: int | None = 0
+    ) -> None:
+        self.config = config or MPPIConfig()
+        self.params = params
+        c = self.config
+        self.basis = np.ascontiguousarray(fourier.basis(c.order, c.horizon))
+        self._shift = fourier.OneStepShift(c.order, c.horizon)
+        self.std = np.stack(
+            [
+                fourier.coefficient_std(c.steer_std, c.std_decay, c.order),
+                fourier.coefficient_std(c.throttle_brake_std, c.std_decay, c.order),
+            ]
+        )  # (2, 2L+1): steering, throttle/brake
+        self.rng = np.random.default_rng(seed)
+        self._params_packed = kernels.pack_params(params)
+        # Buffers allocated once: re-allocating (2L+1, S) and (7, S) arrays every step costs measurably.
+        self._z = np.empty((2, c.coefficients, c.samples))
+        self._noise = np.empty((2, c.coefficients, c.samples // 2 if c.antithetic else c.samples))
+        self._work = np.empty((7, c.samples))
+        self._costs = np.empty(c.samples)
+        self.mean = np.zeros((2, c.coefficients))
+        self.previous_input = (0.0, 0.0)  # (delta, throttle/brake) applied last step, for J0's rate term
+
+    def reset(self, mean: np.ndarray | None = None) -> None:
+        """Forget the warm start (or set it: shape (2, 2L+1), steering then throttle/brake)."""
+        self.mean = np.zeros((2, self.config.coefficients)) if mean is None else np.array(mean, dtype=np.float64)
+        self.previous_input = (0.0, 0.0)
+
+    def sample(self) -> np.ndarray:
+        """Draw coefficient samples around the mean into the buffer, shape (2, 2L+1, S)."""
+        c = self.config
+        z = self._z
+        if c.antithetic:
+            half = c.samples // 2
+            self.rng.standard_normal(out=self._noise)
+            np.multiply(self._noise, self.std[:, :, None], out=z[:, :, :half])
+            np.negative(z[:, :, :half], out=z[:, :, half:])
+        else:
+            self.rng.standard_normal(out=self._noise)
+            np.multiply(self._noise, self.std[:, :, None], out=z)
+        if c.include_mean:
+            z[:, :, 0] = 0.0
+        z += self.mean[:, :, None]
+        return z
+
+    def context(self, state: np.ndarray, surroundings: Surroundings = Surroundings()) -> StepContext:
+        return StepContext(
+            state=state,
+            horizon=self.config.horizon,
+            params=self.params,
+            surroundings=surroundings,
+            previous_input=self.previous_input,
+        )
+
+    def costs(self, prepared: PreparedSpecification, state: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, bool]:
+        """Cost of every sample; ``z`` is (2, 2L+1, S). Returns (costs, whether the fused kernel ran)."""
+        fused = prepared.fused_arrays() if self.config.backend == "fast" else None
+        if fused is not None:
+            kernels.fused_costs(state, self._params_packed, self.basis, z[0], z[1], fused, self._work, self._costs)
+            return self._costs, True
+        return prepared.cost(self.rollouts(state, z)), False
+
+    def rollouts(self, state: np.ndarray, z: np.ndarray) -> Rollouts:
+        """Materialised rollouts of coefficient samples (2, 2L+1, S), the NumPy reference."""
+        return rollout(state, z[0], z[1], self.basis, self.params)
+
+    def step(
+        self, state: np.ndarray, specification: Specification, surroundings: Surroundings = Surroundings()
+    ) -> ControlOutput:
+        """One MPPI iteration from ``state`` = [x_m, y_m, phi_rad, v_mps] under ``specification``."""
+        started = time.perf_counter()
+        state = np.asarray(state, dtype=np.float64)
+        if state.shape != (4,) or not np.all(np.isfinite(state)):
+            raise ValueError(f"state must be 4 finite numbers [x_m, y_m, phi_rad, v_mps], got {state!r}")
+        prepared = specification.prepare(self.context(state, surroundings))
+        z = self.sample()
+        costs, fast = self.costs(prepared, state, z)
+        weights, cost_min = self.weights(costs)
+        if weights is not None:
+            optimum = np.einsum("s,ics->ic", weights, z)
+        else:  # every sample's cost was NaN or infinite: keep the previous plan rather than average garbage
+            optimum = self.mean
+        delta_now, ab_now = (float(v) for v in fourier.value_at_start(optimum))
+        self.mean = self._shift(optimum) if self.config.warm_start == "shifted" else optimum
+        ess = float(1.0 / np.dot(weights, weights)) if weights is not None else 0.0
+        # Scalar saturations in plain Python: np.clip on scalars costs microseconds each.
+        delta_now = min(max(delta_now, -STEER_LIMIT), STEER_LIMIT)
+        ab_now = min(max(ab_now, -1.0), 1.0)
+        self.previous_input = (delta_now, ab_now)
+        return ControlOutput(
+            delta=delta_now,
+            throttle=max(ab_now, 0.0),
+            brake=-min(ab_now, 0.0),
+            cost_min=cost_min,
+            effective_samples=ess,
+            solve_ms=(time.perf_counter() - started) * 1e3,
+            used_fast_path=fast,
+        )
+
+    def weights(self, costs: np.ndarray) -> tuple[np.ndarray | None, float]:
+        """Normalised MPPI weights exp(-(J - min J) / T) (sum 1), or None if no sample has a finite cost."""
+        finite = np.isfinite(costs)
+        if not finite.any():
+            return None, float("inf")
+        if not finite.all():
+            costs = np.where(finite, costs, np.inf)
+        cost_min = float(costs.min())
+        weights = np.exp(-(costs - cost_min) / self.config.temperature)
+        weights /= weights.sum()
+        return weights, cost_min
+
+    def planned_inputs(self) -> np.ndarray:
+        """The current mean's input sequence, (H, 3): delta, throttle, brake (after saturation)."""
+        delta = np.clip(self.mean[0] @ self.basis, -STEER_LIMIT, STEER_LIMIT)
+        throttle, brake = split_throttle_brake(self.mean[1] @ self.basis)
+        return np.stack([delta, throttle, brake], axis=1)

@@ -1,0 +1,205 @@
+"""What every primitive objective shares: the rollouts it scores, the per-step context, and the fused terms.
+
+A primitive is an immutable, validated set of parameters (a pydantic model). Once per control step the
+controller calls ``prepare(context)``, which returns a :class:`PreparedCost` holding whatever the primitive
+derives from the current state (reference points, for example). A prepared cost has two faces:
+
+- ``cost(rollouts)``: the readable NumPy definition over materialised rollouts, shape (S,). This is the
+  reference the tests check and what a user-written primitive must provide.
+- ``add_fused_terms(terms)``: optional. Built-in primitives describe themselves as terms of the fused
+  Numba kernel (``controller/kernels.py``), which rolls out and scores all samples without materialising
+  rollouts. A primitive that returns ``False`` makes the controller use the reference path for that step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict
+
+from agentic_mpc.vehicle import VehicleParams
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Rollouts:
+    """Predicted trajectories of all samples as (H, S) arrays.
+
+    States are k = 1..H (after each input), inputs k = 0..H-1. ``delta`` is the saturated steering the
+    vehicle applies; ``delta_command`` and ``ab_command`` are the raw Fourier series before saturation
+    (the soft input constraints of J0 look at those).
+    """
+
+    x_m: FloatArray
+    y_m: FloatArray
+    phi_rad: FloatArray
+    v_mps: FloatArray
+    delta: FloatArray
+    throttle: FloatArray
+    brake: FloatArray
+    delta_command: FloatArray
+    ab_command: FloatArray
+
+    @property
+    def horizon(self) -> int:
+        return self.x_m.shape[0]
+
+    @property
+    def samples(self) -> int:
+        return self.x_m.shape[1]
+
+
+@dataclass(frozen=True, slots=True)
+class TrackingReference:
+    """The reference of the attached path tracking primitive at this step: points and unit tangents (H, 2)."""
+
+    points: FloatArray
+    tangents: FloatArray
+
+
+@dataclass(frozen=True, slots=True)
+class MovingDisc:
+    """A disc the ego must keep clear of, predicted over the horizon: centres (H, 2), radius in metres.
+
+    The traffic around the ego arrives as these (see the SUMO bridge); the controller does not know where
+    they come from.
+    """
+
+    centres: FloatArray
+    radius_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class Surroundings:
+    """What the world tells the controller at one step, independent of any simulator."""
+
+    moving_discs: tuple[MovingDisc, ...] = ()
+    road_left_edge: TrackingReference | None = None
+    road_right_edge: TrackingReference | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class StepContext:
+    """Everything a primitive may read when it prepares for one control step."""
+
+    state: FloatArray
+    """Current [x_m, y_m, phi_rad, v_mps]."""
+    horizon: int
+    params: VehicleParams
+    surroundings: Surroundings = Surroundings()
+    tracking_reference: TrackingReference | None = None
+    """Set by the specification after the path tracking primitive has prepared."""
+    previous_input: tuple[float, float] = (0.0, 0.0)
+    """The (delta, throttle/brake) applied at the previous step; ab > 0 is throttle, < 0 brake."""
+
+    @property
+    def dt_s(self) -> float:
+        return self.params.dt_s
+
+
+class FusedArrays(NamedTuple):
+    """The fused kernel's view of a whole specification at one step (all weights already scaled)."""
+
+    track_ref: FloatArray  # (n_track, H, 2)
+    track_weight: FloatArray  # (n_track,) per stage: w * ||p - r||^2
+    circles: FloatArray  # (n_circles, 4): cx, cy, r^2, weight per stage inside
+    steer_sign: FloatArray  # (n, 2): sign, weight per stage on min(0, sign*delta)^2
+    lateral_sign: FloatArray  # (n, 3): sign, weight per stage on min(0, sign*e_lat + dead zone)^2, dead zone
+    lateral_ref: FloatArray  # (n, H, 2)
+    lateral_tan: FloatArray  # (n, H, 2)
+    limits: FloatArray  # (7,): steer weight, throttle/brake weight, v_max, speed weight, rate weight, previous delta, previous ab
+    disc_centres: FloatArray  # (n_discs, H, 2)
+    disc_params: FloatArray  # (n_discs, 2): (clearance radius)^2, weight per stage
+    edge_ref: FloatArray  # (n_edges, H, 2) points on the road edges
+    edge_tan: FloatArray  # (n_edges, H, 2)
+    edge_params: FloatArray  # (n_edges, 3): side sign (+1 left edge, -1 right edge), margin, weight
+
+
+@dataclass(slots=True)
+class FusedTerms:
+    """Collects the fused-kernel terms of one step; :meth:`build` packs them into arrays."""
+
+    horizon: int
+    track: list[tuple[FloatArray, float]] = field(default_factory=list)
+    circles: list[tuple[float, float, float, float]] = field(default_factory=list)
+    steer_sign: list[tuple[float, float]] = field(default_factory=list)
+    lateral: list[tuple[float, float, float, FloatArray, FloatArray]] = field(default_factory=list)
+    limits: tuple[float, float, float, float, float, float, float] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0)
+    discs: list[tuple[FloatArray, float, float]] = field(default_factory=list)
+    edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
+
+    def build(self) -> FusedArrays:
+        h = self.horizon
+
+        def stack(arrays: list[FloatArray]) -> FloatArray:
+            if len(arrays) == 1:  # the common case; np.stack costs several microseconds
+                return np.ascontiguousarray(arrays[0])[None]
+            return np.ascontiguousarray(np.stack(arrays)) if arrays else np.zeros((0, h, 2))
+
+        def table(rows: list[tuple[float, ...]], width: int) -> FloatArray:
+            return np.array(rows, dtype=np.float64).reshape(len(rows), width)
+
+        return FusedArrays(
+            track_ref=stack([ref for ref, _ in self.track]),
+            track_weight=np.array([w for _, w in self.track], dtype=np.float64),
+            circles=table(self.circles, 4),
+            steer_sign=table(self.steer_sign, 2),
+            lateral_sign=table([(sign, w, dead_zone) for sign, w, dead_zone, _, _ in self.lateral], 3),
+            lateral_ref=stack([ref for *_, ref, _ in self.lateral]),
+            lateral_tan=stack([tan for *_, tan in self.lateral]),
+            limits=np.array(self.limits, dtype=np.float64),
+            disc_centres=stack([c for c, _, _ in self.discs]),
+            disc_params=table([(r * r, w) for _, r, w in self.discs], 2),
+            edge_ref=stack([p for p, _, _, _, _ in self.edges]),
+            edge_tan=stack([t for _, t, _, _, _ in self.edges]),
+            edge_params=table([(side, margin, w) for _, _, side, margin, w in self.edges], 3),
+        )
+
+
+class PreparedCost(Protocol):
+    """A primitive bound to one control step."""
+
+    def cost(self, rollouts: Rollouts) -> FloatArray:
+        """Cost of every sample, shape (S,), in plain NumPy."""
+        ...
+
+    def add_fused_terms(self, terms: FusedTerms) -> bool:
+        """Describe this cost to the fused kernel; False if it cannot be expressed there."""
+        ...
+
+
+class Primitive(BaseModel):
+    """Base of all primitive objectives: frozen, validated, no unknown fields, no NaN or infinity."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, arbitrary_types_allowed=True)
+
+    kind: ClassVar[str]
+    """Stable identifier of the primitive family, e.g. ``path_tracking``."""
+    paper_symbol: ClassVar[str] = ""
+    mandatory: ClassVar[bool] = False
+
+    @property
+    def name(self) -> str:
+        """The slot the primitive occupies in a specification; attaching another with the same name replaces it."""
+        return self.kind
+
+    def prepare(self, context: StepContext) -> PreparedCost:
+        raise NotImplementedError
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready description (for the agent's system prompt, MCP resources and CSV logs)."""
+        return {"kind": self.kind, "symbol": self.paper_symbol, **self.model_dump(mode="json")}
+
+    def summary(self) -> str:
+        """One short line for logs and CSV columns."""
+        fields = ", ".join(f"{k}={v}" for k, v in self.model_dump(mode="json").items() if k != "path")
+        return f"{self.kind}({fields})"
+
+
+def per_stage(weight: float, horizon: int, normalise_by_horizon: bool) -> float:
+    """The weight of one stage: the paper sums over the horizon; normalising makes it a horizon mean."""
+    return weight / horizon if normalise_by_horizon else weight

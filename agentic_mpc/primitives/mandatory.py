@@ -1,0 +1,103 @@
+"""J0, the mandatory objective: the soft constraints that no tool can detach.
+
+- input limits: the raw steering and throttle/brake series beyond [-1, 1] (the actuators saturate there,
+  so without this the sampling mean could drift deep into saturation where every sample looks the same);
+- a speed limit;
+- other road users: discs predicted over the horizon (``Surroundings.moving_discs``);
+- road edges (``Surroundings.road_left_edge`` / ``road_right_edge``).
+
+Every term is a stage mean over the horizon (divided by H), so weights do not depend on the horizon.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from pydantic import Field
+
+from agentic_mpc.primitives.base import (
+    FloatArray,
+    FusedTerms,
+    Primitive,
+    Rollouts,
+    StepContext,
+    TrackingReference,
+)
+
+
+class Mandatory(Primitive):
+    """J0: input and speed soft constraints, clearance from other road users, staying on the road."""
+
+    kind: ClassVar[str] = "mandatory"
+    paper_symbol: ClassVar[str] = "J0"
+    mandatory: ClassVar[bool] = True
+
+    steer_limit_weight: float = Field(100.0, ge=0, description="per stage, on (|delta_cmd| - 1)^2 beyond the limit")
+    throttle_brake_limit_weight: float = Field(10.0, ge=0, description="per stage, on (|ab_cmd| - 1)^2 beyond")
+    speed_limit_mps: float = Field(40.0, gt=0, description="soft upper speed limit")
+    speed_limit_weight: float = Field(10.0, ge=0, description="per stage, on (v - limit)^2 beyond the limit")
+    vehicle_clearance_weight: float = Field(
+        200.0, ge=0, description="per stage inside another road user's disc, scaled by 1 + penetration depth"
+    )
+    input_rate_weight: float = Field(
+        0.0, ge=0, description="on the change of the first input from the previous step's (anti-chatter)"
+    )
+    road_edge_weight: float = Field(50.0, ge=0, description="per stage, on (margin - distance inside edge)^2")
+    road_edge_margin_m: float = Field(1.0, ge=0, description="how far the ego's centre keeps from a road edge")
+
+    def prepare(self, context: StepContext) -> PreparedMandatory:
+        s = context.surroundings
+        edges: list[tuple[TrackingReference, float]] = []
+        if s.road_left_edge is not None:
+            edges.append((s.road_left_edge, 1.0))
+        if s.road_right_edge is not None:
+            edges.append((s.road_right_edge, -1.0))
+        return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input)
+
+
+@dataclass(frozen=True, slots=True)
+class PreparedMandatory:
+    spec: Mandatory
+    horizon: int
+    discs: tuple
+    edges: tuple[tuple[TrackingReference, float], ...]
+    previous_input: tuple[float, float]
+
+    def cost(self, r: Rollouts) -> FloatArray:
+        p, h = self.spec, self.horizon
+        total = p.steer_limit_weight / h * np.sum(np.maximum(0.0, np.abs(r.delta_command) - 1.0) ** 2, axis=0)
+        total += p.throttle_brake_limit_weight / h * np.sum(np.maximum(0.0, np.abs(r.ab_command) - 1.0) ** 2, axis=0)
+        total += p.speed_limit_weight / h * np.sum(np.maximum(0.0, r.v_mps - p.speed_limit_mps) ** 2, axis=0)
+        previous_delta, previous_ab = self.previous_input
+        first_ab = np.clip(r.ab_command[0], -1.0, 1.0)
+        total += p.input_rate_weight * ((r.delta[0] - previous_delta) ** 2 + (first_ab - previous_ab) ** 2)
+        for disc in self.discs:
+            d2 = (r.x_m - disc.centres[:, 0:1]) ** 2 + (r.y_m - disc.centres[:, 1:2]) ** 2
+            r2 = disc.radius_m**2
+            inside = d2 < r2
+            total += p.vehicle_clearance_weight / h * np.sum(inside * (2.0 - d2 / r2), axis=0)
+        for edge, side in self.edges:
+            ex, ey = edge.points[:, 0:1], edge.points[:, 1:2]
+            tx, ty = edge.tangents[:, 0:1], edge.tangents[:, 1:2]
+            e_lat = tx * (r.y_m - ey) - ty * (r.x_m - ex)
+            violation = np.maximum(0.0, p.road_edge_margin_m + side * e_lat)
+            total += p.road_edge_weight / h * np.sum(violation**2, axis=0)
+        return total
+
+    def add_fused_terms(self, terms: FusedTerms) -> bool:
+        p, h = self.spec, self.horizon
+        terms.limits = (
+            p.steer_limit_weight / h,
+            p.throttle_brake_limit_weight / h,
+            p.speed_limit_mps,
+            p.speed_limit_weight / h,
+            p.input_rate_weight,
+            *self.previous_input,
+        )
+        for disc in self.discs:
+            terms.discs.append((disc.centres, disc.radius_m, p.vehicle_clearance_weight / h))
+        for edge, side in self.edges:
+            terms.edges.append((edge.points, edge.tangents, side, p.road_edge_margin_m, p.road_edge_weight / h))
+        return True

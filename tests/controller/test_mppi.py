@@ -1,0 +1,120 @@
+"""Fourier MPPI: the fast path equals the NumPy reference; the controller never outputs NaN."""
+
+import numpy as np
+import pytest
+
+from agentic_mpc.controller import FourierMPPI, MPPIConfig
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.primitives import (
+    Circle,
+    Mandatory,
+    MovingDisc,
+    ObstacleAvoidance,
+    PathTracking,
+    PreferredSteeringDirection,
+    Specification,
+    Surroundings,
+    TrackingReference,
+)
+
+CURVE = LanePath(np.column_stack([np.linspace(0, 300, 301), 20 * np.sin(np.linspace(0, 300, 301) / 60)]))
+
+
+def specifications():
+    j1 = PathTracking(path=CURVE, v_ref_mps=15)
+    j2 = ObstacleAvoidance(obstacles=(Circle(x_m=25, y_m=8, radius_m=2), Circle(x_m=10, y_m=1, radius_m=1.5)))
+    return {
+        "J0": Specification.of(),
+        "J0+J1": Specification.of(j1),
+        "paper J1+J2": Specification.of(j1.model_copy(update={"reference_accel_mps2": None}), j2),
+        "J1+J2+J3 lateral": Specification.of(j1, j2, PreferredSteeringDirection(direction="right")),
+        "J3 paper, no path": Specification.of(PreferredSteeringDirection(direction="left", form="paper")),
+        "J3 lateral, no path": Specification.of(PreferredSteeringDirection(direction="left")),
+        "J0 with rate term": Specification.of(Mandatory(input_rate_weight=5.0, speed_limit_mps=14.0), j1),
+    }
+
+
+def surroundings(horizon):
+    k = np.arange(1, horizon + 1)[:, None]
+    ahead = np.hstack([20 + 12 * 0.04 * k, np.full_like(k, 3.0, dtype=float)])
+    edge = TrackingReference(
+        np.column_stack([np.linspace(0, 30, horizon), np.full(horizon, 5.0)]), np.tile([1.0, 0.0], (horizon, 1))
+    )
+    right = TrackingReference(edge.points - [0, 10.0], edge.tangents)
+    return Surroundings(moving_discs=(MovingDisc(ahead, 2.5),), road_left_edge=edge, road_right_edge=right)
+
+
+@pytest.mark.parametrize("name", list(specifications()))
+@pytest.mark.parametrize("horizon, samples", [(50, 256), (17, 64)])
+def test_fast_path_equals_reference(name, horizon, samples):
+    spec = specifications()[name]
+    controller = FourierMPPI(MPPIConfig(horizon=horizon, samples=samples), seed=5)
+    controller.mean = np.random.default_rng(1).normal(size=controller.mean.shape) * 0.4
+    controller.previous_input = (0.2, -0.1)
+    state = np.array([2.0, 1.0, 0.1, 14.0])
+    prepared = spec.prepare(controller.context(state, surroundings(horizon)))
+    z = controller.sample().copy()
+    fast, used_fast = controller.costs(prepared, state, z)
+    assert used_fast
+    reference = prepared.cost(controller.rollouts(state, z))
+    assert np.allclose(fast, reference, rtol=1e-10, atol=1e-10)
+    weights_fast, _ = controller.weights(fast.copy())
+    weights_ref, _ = controller.weights(reference)
+    assert np.allclose(np.einsum("s,ics->ic", weights_fast, z), np.einsum("s,ics->ic", weights_ref, z), atol=1e-10)
+
+
+def test_fast_and_reference_controllers_drive_identically():
+    spec = specifications()["J1+J2+J3 lateral"]
+    outputs = {}
+    for backend in ("fast", "reference"):
+        controller = FourierMPPI(MPPIConfig(backend=backend), seed=11)
+        state = np.array([0.0, 0.0, 0.0, 15.0])
+        outputs[backend] = [controller.step(state, spec).inputs for _ in range(5)]
+    assert np.allclose(outputs["fast"], outputs["reference"], atol=1e-9)
+
+
+def test_same_seed_same_inputs_different_seed_different_inputs():
+    spec = specifications()["J0+J1"]
+    state = np.array([0.0, 0.5, 0.0, 15.0])
+    runs = [[FourierMPPI(seed=s).step(state, spec).inputs for _ in range(1)] for s in (4, 4, 5)]
+    assert np.array_equal(runs[0], runs[1])
+    assert not np.array_equal(runs[0], runs[2])
+
+
+@pytest.mark.parametrize(
+    "state",
+    [
+        [1e6, -1e6, 0.0, 15.0],
+        [0.0, 0.0, 1e3, 15.0],
+        [0.0, 0.0, 0.0, 500.0],
+        [0.0, 0.0, 0.0, 0.0],
+        [0.0, 1e4, -3.0, 1e4],
+    ],
+)
+def test_extreme_states_never_give_nan_inputs(state):
+    controller = FourierMPPI(seed=0)
+    for spec in specifications().values():
+        for _ in range(3):
+            out = controller.step(np.array(state), spec)
+            assert np.all(np.isfinite(out.inputs))
+            assert -1 <= out.delta <= 1 and 0 <= out.throttle <= 1 and 0 <= out.brake <= 1
+
+
+def test_nan_state_is_refused_with_a_clear_error():
+    with pytest.raises(ValueError, match="state must be 4 finite numbers"):
+        FourierMPPI().step(np.array([0.0, np.nan, 0.0, 1.0]), Specification.of())
+
+
+def test_weights_survive_non_finite_costs():
+    controller = FourierMPPI()
+    weights, cost_min = controller.weights(np.array([np.inf, 3.0, np.nan, 4.0]))
+    assert weights is not None and np.isclose(weights.sum(), 1.0) and weights[0] == 0 and weights[2] == 0
+    assert cost_min == 3.0
+    assert controller.weights(np.array([np.nan, np.inf]))[0] is None
+
+
+def test_config_is_validated():
+    with pytest.raises(ValueError, match="even"):
+        MPPIConfig(samples=255)
+    with pytest.raises(ValueError, match="temperature"):
+        MPPIConfig(temperature=0)
