@@ -41,9 +41,13 @@ def birds_eye(
         colour = VARIANT_COLOURS.get(variant)
         for i, states in enumerate(runs):
             ax.plot(states[:, 0], states[:, 1], color=colour, lw=1, alpha=0.8, label=variant if i == 0 else None)
-    if x_range_m:
+    if x_range_m:  # a window along a straight road: keep the lanes, not the whole road, in view
         ax.set_xlim(*x_range_m)
-    ax.set_aspect("equal", adjustable="datalim")
+        lane_y = np.concatenate([lane.coordinates[:, 1] for lane in lanes])
+        ax.set_ylim(lane_y.min() - 1.5 * lane_width_m, lane_y.max() + 1.5 * lane_width_m)
+        ax.set_aspect("equal", adjustable="box")
+    else:
+        ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(title)

@@ -6,12 +6,14 @@ import argparse
 import json
 import time
 
+from agentic_mpc.commands import positive_int
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("bench", help="time the Fourier MPPI step", description=__doc__)
-    parser.add_argument("--horizon", type=int, default=50, help="prediction horizon H (steps)")
-    parser.add_argument("--samples", type=int, default=256, help="samples S")
-    parser.add_argument("--steps", type=int, default=500, help="timed controller steps")
+    parser.add_argument("--horizon", type=positive_int, default=50, help="prediction horizon H (steps)")
+    parser.add_argument("--samples", type=positive_int, default=256, help="samples S")
+    parser.add_argument("--steps", type=positive_int, default=500, help="timed controller steps")
     parser.add_argument("--backend", choices=("fast", "reference"), default="fast")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", action="store_true", help="print one JSON object")

@@ -9,10 +9,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from agentic_mpc.commands import positive_int
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("demo", help="the paper's obstacle scenario without traffic", description=__doc__)
-    parser.add_argument("--trials", type=int, default=10, help="seeds per variant (the paper ran 10)")
+    parser.add_argument("--trials", type=positive_int, default=10, help="seeds per variant (the paper ran 10)")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=Path("out/obstacle_demo"), help="output directory")
     parser.set_defaults(handler=run)
@@ -24,8 +26,6 @@ def run(args: argparse.Namespace) -> int:
     from agentic_mpc import plots
     from agentic_mpc.obstacle_demo import VARIANTS, ObstacleScene, analyse_pass, run_obstacle_variant
 
-    if args.trials < 1:
-        raise SystemExit(f"agentic-mpc demo: --trials must be at least 1, got {args.trials}")
     scene = ObstacleScene()
     rows, trajectories, series = [], {}, {}
     for variant in VARIANTS:
