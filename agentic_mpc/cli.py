@@ -8,7 +8,7 @@ import importlib
 import os
 import sys
 
-COMMANDS = ("demo", "bench")
+COMMANDS = ("demo", "ask", "serve", "bench")
 """Command modules under agentic_mpc.commands, in the order ``--help`` lists them."""
 
 

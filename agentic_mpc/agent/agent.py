@@ -1,0 +1,482 @@
+"""The agent of the paper's section "Agent": a message history driven by a backend, acting through MCP.
+
+A new user message (typed, or generated from an observation) starts an agent step: it is appended to the
+history, the backend answers with text and tool calls, each call goes to the MCP server and its result is
+appended, and the backend is asked again, until it answers without tool calls; then the agent idles until
+the next message. The system message (tau = 0) holds the initially attached primitives and the tools, so
+the agent can restore the original specification.
+
+The agent talks to the controller ONLY through the MCP server, with ``mcp.Client``: in-process by default
+(pass the ``MCPServer``), or a server in another process (``StdioServerParameters``) or over HTTP (a URL).
+It runs in its own thread with its own event loop: the control loop never waits for it.
+
+Timing modes (``AgentConfig.timing``):
+
+- ``realtime``: a message is processed as it arrives; tool calls apply when they reach the server. How long
+  the backend thinks is how long the car drives on the old specification.
+- ``lockstep``: reproducible. ``deliver(text, sim_time_s=t)`` blocks the caller (the simulation, so sim time
+  is frozen) until the agent is idle again, and every tool call of that step carries
+  ``_meta["agentic-mpc/apply_at_s"] = t + latency_s``: the server validates it at once and applies it when
+  the simulation reaches t + latency_s, as if the agent had thought for ``latency_s``. With a deterministic
+  backend the whole run is deterministic.
+
+Wiring it to a simulation (the plain-Python world does this; the SUMO co-simulation will do the same)::
+
+    slot = SpecificationSlot(initial_specification)
+    tools = ControllerTools(slot, lane_source)            # lane_source() -> RoadLanes(lanes, speed_limit_mps)
+    server = build_server(tools, latest_observation)      # latest_observation() -> Observation.to_json()
+    agent = Agent(RulesBackend(), server, AgentConfig(timing="lockstep", latency_s=1.0)).start()
+    every control step at sim time t:
+        tools.apply_due(t)                                # lockstep changes whose time has come
+        ... controller.step(state, slot.current, surroundings) ...
+        server.publish_observation(observation)           # ResourceUpdated for listening MCP clients
+        agent.observe(observation)                        # observation messages, if enabled
+    a passenger message at sim time t: agent.deliver(text, sim_time_s=t)
+
+Bad input never stops the car: empty, oversized or non-text messages are rejected before they become a step;
+unknown tools, unparseable or schema-violating arguments (including NaN) are answered with a tool error
+message (the backend may correct itself, at most ``max_consecutive_errors`` rounds in a row); an unreachable
+or timed-out backend is retried ``backend_attempts`` times, then the step ends. Each of these is recorded in
+the transcript (JSONL, see :mod:`agentic_mpc.agent.transcript`) and logged; the controller keeps its last
+valid specification.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import math
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from mcp import Client
+from pydantic import BaseModel, ConfigDict, Field
+
+from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
+from agentic_mpc.agent.messages import Message, MessageHistory, Source, ToolCall
+from agentic_mpc.agent.observations import EmergencyWatch, EmergencyWatchConfig
+from agentic_mpc.agent.transcript import Transcript
+from agentic_mpc.mcp_server import APPLY_AT_META_KEY, AgenticMPCServer, validate_arguments
+
+logger = logging.getLogger(__name__)
+
+
+class AgentConfig(BaseModel):
+    """How the agent runs."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    timing: Literal["realtime", "lockstep"] = "realtime"
+    latency_s: float = Field(1.0, ge=0, description="lockstep: the thinking time charged to every agent step")
+    max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step")
+    max_tool_calls_per_round: int = Field(8, ge=1, le=100)
+    max_consecutive_errors: int = Field(3, ge=1, description="rounds in a row whose every tool call failed")
+    backend_attempts: int = Field(3, ge=1, le=20, description="tries per backend answer before the step ends")
+    backend_timeout_s: float = Field(120.0, gt=0)
+    retry_backoff_s: float = Field(0.5, ge=0)
+    tool_timeout_s: float = Field(10.0, gt=0)
+    max_message_chars: int = Field(4000, ge=1)
+    startup_timeout_s: float = Field(60.0, gt=0)
+    lockstep_timeout_s: float = Field(600.0, gt=0)
+    transcript_path: Path | None = None
+    wake_on_emergency_vehicles: bool = False
+    emergency_watch: EmergencyWatchConfig = EmergencyWatchConfig()
+    system_prompt_extra: str = ""
+
+
+class AgentError(RuntimeError):
+    """The agent could not start (no MCP server, no tools)."""
+
+
+@dataclass
+class StepReport:
+    """What one agent step did."""
+
+    message: str
+    source: Source
+    sim_time_s: float | None
+    first_tau: int = -1
+    last_tau: int = -1
+    tool_calls: list[dict[str, Any]] = field(default_factory=list)
+    """Each call: tool, arguments, ok, result or error, apply_at_s."""
+    text: str = ""
+    """The agent's last text."""
+    errors: list[str] = field(default_factory=list)
+    ended: Literal["idle", "backend_error", "gave_up", "round_limit", "rejected", "closed"] = "idle"
+
+    @property
+    def applied_calls(self) -> list[dict[str, Any]]:
+        """The calls the server accepted, as {"tool", "arguments"}."""
+        return [{"tool": c["tool"], "arguments": c["arguments"]} for c in self.tool_calls if c["ok"]]
+
+
+def _describe_primitive(primitive: dict[str, Any]) -> str:
+    params = []
+    for key, value in primitive.items():
+        if key in ("kind", "symbol"):
+            continue
+        if isinstance(value, list):
+            value = f"{len(value)} item(s)"
+        params.append(f"{key}={value}")
+    return f"- {primitive.get('kind')} ({primitive.get('symbol')}): {', '.join(params)}"
+
+
+def _describe_tool(tool: ToolSpec) -> str:
+    args = []
+    for name, prop in tool.input_schema.get("properties", {}).items():
+        kind = prop.get("type", "value")
+        if "enum" in prop:
+            kind = " | ".join(map(repr, prop["enum"]))
+        elif "minimum" in prop or "maximum" in prop:
+            kind = f"{kind} in [{prop.get('minimum', '-inf')}, {prop.get('maximum', 'inf')}]"
+        args.append(f"{name}: {kind}")
+    return f"- {tool.name}({', '.join(args)}): {tool.description}"
+
+
+def system_prompt(initial: dict[str, Any] | None, tools: Sequence[ToolSpec], extra: str = "") -> str:
+    """The system message: role, (A) the initially attached primitives, (B) the tools (paper, "Agent Setup")."""
+    lines = [
+        "You are the driving agent of an autonomous car. A model predictive controller drives the car; its "
+        "control specification is a sum of primitive objective functions. You change the specification only "
+        "by calling the tools below. Call a tool only when the specification must change; otherwise answer "
+        "briefly without calling any tool. Speeds are in m/s (1 m/s = 3.6 km/h; 1 mph = 0.447 m/s).",
+        "",
+        "Initially attached primitives (the original specification; restore it when a temporary situation is over):",
+    ]
+    attached = (initial or {}).get("attached", [])
+    lines += [_describe_primitive(p) for p in attached if p.get("kind") != "mandatory"] or ["- (unknown)"]
+    lines += ["", "Available tools:"] + [_describe_tool(t) for t in tools]
+    if extra:
+        lines += ["", extra]
+    return "\n".join(lines)
+
+
+def _root_cause(error: BaseException) -> BaseException:
+    """The first leaf of nested exception groups (task groups wrap the interesting error)."""
+    while isinstance(error, BaseExceptionGroup) and error.exceptions:
+        error = error.exceptions[0]
+    return error
+
+
+def _check_message(text: Any, limit: int) -> str | None:
+    """Why ``text`` cannot become a user message, or None."""
+    if not isinstance(text, str):
+        return f"a message must be text, got {type(text).__name__}"
+    if not text.strip():
+        return "empty message"
+    if len(text) > limit:
+        return f"message of {len(text)} characters exceeds the limit of {limit}"
+    return None
+
+
+class Agent:
+    """The agent (see the module docstring). Use as a context manager, or ``start()`` / ``close()``.
+
+    ``server`` is what ``mcp.Client`` connects to: an ``MCPServer`` (or :class:`AgenticMPCServer`) for
+    in-process, ``StdioServerParameters`` for a subprocess, a URL for streamable HTTP. ``sim_clock``, if
+    given, stamps sim time on messages that arrive without one (realtime mode).
+    """
+
+    def __init__(
+        self,
+        backend: Backend,
+        server: Any,
+        config: AgentConfig | None = None,
+        sim_clock: Callable[[], float] | None = None,
+    ) -> None:
+        self.backend = backend
+        self.server = server.server if isinstance(server, AgenticMPCServer) else server
+        self.config = config or AgentConfig()
+        self.sim_clock = sim_clock
+        self.history = MessageHistory()
+        self.transcript = Transcript(self.config.transcript_path)
+        self.tools: tuple[ToolSpec, ...] = ()
+        self.watch = EmergencyWatch(self.config.emergency_watch)
+        self._thread: threading.Thread | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._queue: asyncio.Queue[tuple[Message, Future[StepReport]] | None] | None = None
+        self._ready = threading.Event()
+        self._startup_error: BaseException | None = None
+        self._client: Client | None = None
+        self._closed = False
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> Agent:
+        if self._thread is not None:
+            return self
+        self._thread = threading.Thread(target=self._thread_main, name="agent", daemon=True)
+        self._thread.start()
+        if not self._ready.wait(self.config.startup_timeout_s):
+            raise AgentError(f"the agent did not connect to the MCP server within {self.config.startup_timeout_s} s")
+        if self._startup_error is not None:
+            cause = _root_cause(self._startup_error)
+            raise AgentError(f"the agent could not start: {cause!r}") from cause
+        return self
+
+    def close(self, timeout_s: float = 10.0) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        if self._loop is not None and self._queue is not None and not self._loop.is_closed():
+            try:
+                self._loop.call_soon_threadsafe(self._queue.put_nowait, None)
+            except RuntimeError:
+                pass
+        if self._thread is not None:
+            self._thread.join(timeout_s)
+        self.transcript.close()
+
+    def __enter__(self) -> Agent:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _thread_main(self) -> None:
+        try:
+            asyncio.run(self._main())
+        except BaseException as error:  # noqa: BLE001 - reported through start() or the log
+            if not self._ready.is_set():
+                self._startup_error = error
+                self._ready.set()
+            else:
+                logger.exception("the agent's event loop stopped")
+
+    async def _main(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._queue = asyncio.Queue()
+        try:
+            async with Client(self.server, cache=None) as client:
+                self._client = client
+                await self._introduce(client)
+                self._ready.set()
+                while True:
+                    item = await self._queue.get()
+                    if item is None:
+                        break
+                    message, future = item
+                    try:
+                        report = await self._run_step(message)
+                    except Exception as error:  # never leave a caller waiting on a crashed step
+                        logger.exception("agent step failed")
+                        report = StepReport(message.content, message.source or "user", message.sim_time_s)
+                        report.errors.append(f"internal error: {error!r}")
+                        report.ended = "gave_up"
+                    future.set_result(report)
+        finally:
+            await self._drain_closed()
+            try:
+                await self.backend.aclose()
+            except Exception:
+                logger.exception("closing the backend failed")
+
+    async def _drain_closed(self) -> None:
+        if self._queue is None:
+            return
+        while not self._queue.empty():
+            item = self._queue.get_nowait()
+            if item is not None:
+                message, future = item
+                report = StepReport(message.content, message.source or "user", message.sim_time_s, ended="closed")
+                future.set_result(report)
+
+    async def _introduce(self, client: Client) -> None:
+        listed = await client.list_tools()
+        self.tools = tuple(ToolSpec(t.name, t.description or "", dict(t.input_schema)) for t in listed.tools)
+        if not self.tools:
+            raise AgentError("the MCP server lists no tools")
+        initial: dict[str, Any] | None = None
+        try:
+            read = await client.read_resource("mpc://specification/initial")
+            initial = json.loads(read.contents[0].text)  # type: ignore[union-attr]
+        except Exception as error:  # a server without it still works; the agent just cannot restore
+            logger.warning("could not read mpc://specification/initial: %s", error)
+        system = self.history.append(
+            Message(
+                "system",
+                system_prompt(initial, self.tools, self.config.system_prompt_extra),
+                data={"initial_specification": initial, "tools": [t.to_openai() for t in self.tools]},
+                sim_time_s=self._now(None),
+            )
+        )
+        self.transcript.message(system)
+
+    # ------------------------------------------------------------------ inputs
+    def _now(self, frozen: float | None) -> float | None:
+        if frozen is not None:
+            return frozen
+        if self.sim_clock is None:
+            return None
+        try:
+            return float(self.sim_clock())
+        except Exception:
+            return None
+
+    def deliver(self, text: Any, sim_time_s: float | None = None, source: Source = "user") -> Future[StepReport]:
+        """Hand the agent a message. Realtime: returns at once. Lockstep: returns when the agent is idle again."""
+        future: Future[StepReport] = Future()
+        t = sim_time_s if sim_time_s is not None else self._now(None)
+        if self.config.timing == "lockstep" and (t is None or not math.isfinite(t)):
+            raise ValueError("lockstep mode needs the sim time of every message (sim_time_s or sim_clock)")
+        problem = _check_message(text, self.config.max_message_chars)
+        if problem is None and (self._closed or self._loop is None or self._queue is None):
+            problem = "the agent is not running"
+        if problem is not None:
+            preview = text[:200] if isinstance(text, str) else repr(text)[:200]
+            logger.warning("rejected %s message: %s", source, problem)
+            self.transcript.record(
+                "rejected_input", tau=self.history.tau, sim_time_s=t, source=source, error=problem,
+                preview=preview, length=len(text) if isinstance(text, str) else None,
+            )
+            report = StepReport(preview, source, t, ended="rejected")
+            report.errors.append(problem)
+            future.set_result(report)
+            return future
+        message = Message("user", text.replace("\x00", ""), source=source, sim_time_s=t)
+        self._loop.call_soon_threadsafe(self._queue.put_nowait, (message, future))  # type: ignore[union-attr]
+        if self.config.timing == "lockstep":
+            future.result(timeout=self.config.lockstep_timeout_s)
+        return future
+
+    def observe(self, observation: dict[str, Any]) -> list[Future[StepReport]]:
+        """Feed an observation; wakes the agent with an observation message when the watch says so."""
+        if not self.config.wake_on_emergency_vehicles:
+            return []
+        t = observation.get("time_s")
+        return [
+            self.deliver(text, sim_time_s=float(t) if isinstance(t, int | float) else None, source="observation")
+            for text in self.watch.update(observation)
+        ]
+
+    # ------------------------------------------------------------------ one agent step
+    def _append(self, message: Message) -> Message:
+        stamped = self.history.append(message)
+        self.transcript.message(stamped)
+        return stamped
+
+    async def _run_step(self, incoming: Message) -> StepReport:
+        frozen = incoming.sim_time_s if self.config.timing == "lockstep" else None
+        apply_at = None if frozen is None else frozen + self.config.latency_s
+        user = self._append(incoming)
+        report = StepReport(user.content, user.source or "user", user.sim_time_s, first_tau=user.tau)
+        consecutive_errors = 0
+        for _ in range(self.config.max_rounds_per_step):
+            try:
+                reply = await self._complete(frozen)
+            except BackendError as error:
+                report.errors.append(str(error))
+                report.ended = "backend_error"
+                break
+            calls = reply.tool_calls
+            agent_message = self._append(
+                Message("assistant", reply.text, tool_calls=calls, sim_time_s=self._now(frozen))
+            )
+            report.text = reply.text
+            if not calls:
+                report.ended = "idle"
+                break
+            failures = 0
+            for index, call in enumerate(calls):
+                if index >= self.config.max_tool_calls_per_round:
+                    limit = self.config.max_tool_calls_per_round
+                    result = self._tool_error(call, f"too many tool calls in one answer (at most {limit})", frozen)
+                else:
+                    result = await self._execute(call, apply_at, frozen, agent_message.tau)
+                stamped = self._append(result)
+                entry: dict[str, Any] = {"tool": call.name, "arguments": call.arguments, "ok": not stamped.is_error}
+                entry["error" if stamped.is_error else "result"] = stamped.data if stamped.data else stamped.content
+                if apply_at is not None:
+                    entry["apply_at_s"] = apply_at
+                report.tool_calls.append(entry)
+                if stamped.is_error:
+                    failures += 1
+                    report.errors.append(f"{call.name}: {stamped.content}")
+            consecutive_errors = consecutive_errors + 1 if failures == len(calls) else 0
+            if consecutive_errors >= self.config.max_consecutive_errors:
+                report.ended = "gave_up"
+                break
+        else:
+            report.ended = "round_limit"
+        report.last_tau = self.history.tau
+        level = logging.INFO if report.ended == "idle" else logging.WARNING
+        logger.log(level, "agent step tau %d-%d ended (%s): %d tool call(s), %d error(s)", report.first_tau,
+                   report.last_tau, report.ended, len(report.tool_calls), len(report.errors))
+        self.transcript.record(
+            "step_end", tau=report.last_tau, sim_time_s=self._now(frozen), ended=report.ended,
+            applied=report.applied_calls, errors=report.errors,
+        )
+        return report
+
+    async def _complete(self, frozen: float | None) -> BackendReply:
+        last_error: BaseException | None = None
+        for attempt in range(1, self.config.backend_attempts + 1):
+            try:
+                return await asyncio.wait_for(
+                    self.backend.complete(self.history.messages, self.tools), self.config.backend_timeout_s
+                )
+            except (BackendError, TimeoutError) as error:
+                last_error = error
+                detail = str(error) or f"no answer within {self.config.backend_timeout_s} s"
+            except Exception as error:  # a backend bug must not kill the agent either
+                last_error = error
+                detail = f"unexpected backend failure: {error!r}"
+            logger.warning("backend %s failed (attempt %d/%d): %s", self.backend.name, attempt,
+                           self.config.backend_attempts, detail)
+            self.transcript.record("backend_error", tau=self.history.tau, sim_time_s=self._now(frozen),
+                                   backend=self.backend.name, attempt=attempt, error=detail)
+            if attempt < self.config.backend_attempts:
+                await asyncio.sleep(self.config.retry_backoff_s * attempt)
+        raise BackendError(
+            f"backend {self.backend.name} gave no usable answer after {self.config.backend_attempts} attempts: "
+            f"{str(last_error) or type(last_error).__name__}"
+        )
+
+    def _tool_error(self, call: ToolCall, error: str, frozen: float | None) -> Message:
+        logger.warning("tool call %s refused: %s", call.name, error)
+        return Message("tool", f"Error: {error}", tool_call_id=call.id, name=call.name, is_error=True,
+                       sim_time_s=self._now(frozen))
+
+    async def _execute(self, call: ToolCall, apply_at: float | None, frozen: float | None, tau: int) -> Message:
+        """Validate one call against the listed tools and schemas, then send it to the MCP server."""
+        self.transcript.record("tool_call", tau=tau, sim_time_s=self._now(frozen), tool=call.name,
+                               arguments=call.arguments, raw_arguments=call.raw_arguments or None,
+                               apply_at_s=apply_at)
+        tools = {t.name: t for t in self.tools}
+        if call.error is not None:
+            return self._result_record(call, self._tool_error(call, call.error, frozen), tau)
+        if call.name not in tools:
+            error = f"unknown tool {call.name!r}; available tools: {', '.join(sorted(tools))}"
+            return self._result_record(call, self._tool_error(call, error, frozen), tau)
+        try:
+            validate_arguments(call.name, tools[call.name].input_schema, call.arguments)
+        except ValueError as error:
+            return self._result_record(call, self._tool_error(call, str(error), frozen), tau)
+        assert self._client is not None
+        meta = {APPLY_AT_META_KEY: apply_at} if apply_at is not None else None
+        try:
+            sent = self._client.call_tool(call.name, call.arguments, meta=meta)  # type: ignore[arg-type]
+            result = await asyncio.wait_for(sent, self.config.tool_timeout_s)
+        except Exception as error:  # protocol error, timeout, lost connection
+            detail = str(error) or type(error).__name__
+            return self._result_record(call, self._tool_error(call, f"MCP call failed: {detail}", frozen), tau)
+        text = "\n".join(getattr(block, "text", "") for block in result.content) or "(no content)"
+        if result.is_error:
+            return self._result_record(call, self._tool_error(call, text, frozen), tau)
+        message = Message("tool", text, tool_call_id=call.id, name=call.name, data=result.structured_content,
+                          sim_time_s=self._now(frozen))
+        logger.info("tool call %s(%s) applied%s", call.name, call.arguments,
+                    f" at t={apply_at:.3f} s" if apply_at is not None else "")
+        return self._result_record(call, message, tau)
+
+    def _result_record(self, call: ToolCall, message: Message, tau: int) -> Message:
+        outcome = {"error": message.content} if message.is_error else {"result": message.data or message.content}
+        self.transcript.record(
+            "tool_result", tau=tau, sim_time_s=message.sim_time_s, tool=call.name, arguments=call.arguments,
+            is_error=message.is_error, **outcome,
+        )
+        return message

@@ -1,0 +1,89 @@
+"""``agentic-mpc serve``: drive the car and expose its controller tools and observations as an MCP server.
+
+For now the world is the plain-Python closed loop (:mod:`agentic_mpc.plain_world`): a straight 3-lane road,
+lanes 3.5 m apart, speed limit 25 m/s, the paper's initial specification (center lane at 15 m/s plus
+obstacle avoidance) with an obstacle 80 m ahead, a slower car in the right lane and an ambulance that comes
+up behind the ego at ``--ambulance-at-s``. It runs in real time (``--time-scale`` stretches it) in a
+background thread while the MCP server answers; the SUMO co-simulation will plug in through the same
+observation callable and lane source.
+
+Transports: ``--transport stdio`` (the default: for Claude Desktop, MCP Inspector and other hosts that
+start the server themselves; nothing but MCP goes to stdout, logs go to stderr) and ``--transport http``
+(streamable HTTP at ``http://HOST:PORT/mcp``). See :mod:`agentic_mpc.mcp_server` for the tools, resources
+and host configuration, e.g. Claude Desktop::
+
+    {"mcpServers": {"agentic-mpc": {"command": "agentic-mpc", "args": ["serve", "--transport", "stdio"]}}}
+
+and the MCP Inspector's command line::
+
+    npx @modelcontextprotocol/inspector --cli agentic-mpc serve --method tools/list
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "serve", help="run the simulation and expose it as an MCP server", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_arguments(parser)
+    parser.set_defaults(handler=run)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--transport", choices=("stdio", "http"), default="stdio")
+    parser.add_argument("--host", default="127.0.0.1", help="http: interface to listen on")
+    parser.add_argument("--port", type=int, default=8765, help="http: port (the endpoint is /mcp)")
+    parser.add_argument("--time-scale", type=float, default=1.0,
+                        help="wall seconds per simulated second (1 = real time, 2 = half speed)")
+    parser.add_argument("--duration-s", type=float, default=None, help="stop the simulation after this sim time")
+    parser.add_argument("--ambulance-at-s", type=float, default=30.0,
+                        help="sim time an ambulance appears behind the ego (negative: no ambulance)")
+    parser.add_argument("--seed", type=int, default=0, help="controller sampling seed")
+    parser.add_argument("--publish-interval-s", type=float, default=0.2,
+                        help="sim seconds between resource-updated notifications for ego and traffic")
+    parser.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+
+
+def run(args: argparse.Namespace) -> int:
+    from agentic_mpc.mcp_server import build_server
+    from agentic_mpc.plain_world import PlainWorld, demo_config
+
+    # stdout belongs to the MCP protocol on stdio: everything else goes to stderr.
+    logging.basicConfig(level=args.log_level, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
+    if args.time_scale <= 0:
+        print("error: --time-scale must be positive", file=sys.stderr)
+        return 2
+    config = demo_config(args.ambulance_at_s if args.ambulance_at_s >= 0 else None)
+    config.seed = args.seed
+    world = PlainWorld(config)
+    server = build_server(world.tools, world.latest_observation, publish_interval_s=args.publish_interval_s)
+    world.on_step.append(server.publish_observation)
+    world.step()  # compile the controller before the first client arrives
+    world.start(duration_s=args.duration_s, realtime=True, time_scale=args.time_scale)
+    logging.getLogger(__name__).info("simulation running; MCP over %s", args.transport)
+    try:
+        if args.transport == "stdio":
+            server.server.run("stdio")
+        else:
+            print(f"MCP server at http://{args.host}:{args.port}/mcp", file=sys.stderr, flush=True)
+            server.server.run("streamable-http", host=args.host, port=args.port)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        world.stop()
+    return 0
+
+
+if __name__ == "__main__":  # python -m agentic_mpc.commands.serve (before the CLI lists the command)
+    for variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(variable, "1")
+    main_parser = argparse.ArgumentParser(prog="agentic-mpc serve", description=__doc__)
+    add_arguments(main_parser)
+    sys.exit(run(main_parser.parse_args()))

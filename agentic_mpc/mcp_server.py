@@ -1,0 +1,421 @@
+"""The MCP server: the controller tools and the world's observations, for the agent or any MCP host.
+
+Built on the mcp 2.x SDK's ``MCPServer``. The same server serves the embedded agent (in-process, through
+``mcp.Client(server)``), a host over stdio, or a host over streamable HTTP (``agentic-mpc serve``).
+
+Tools (arguments bounded by JSON schemas; anything else is an MCP tool error and changes nothing):
+``run_center_lane(v_ref)``, ``run_left_lane(v_ref)``, ``run_right_lane(v_ref)``, ``set_reference_speed(v_ref)``
+(``v_ref`` in m/s, 0 to the road speed limit), ``set_preferred_steering_direction(direction)`` (``left`` or
+``right``), ``clear_preferred_steering_direction()``. Each returns the specification now attached (or, when
+scheduled, the one that will be). Arguments are checked against the published schema before the tool runs:
+unknown arguments, wrong types, out-of-range and non-finite numbers are refused.
+
+Resources (JSON): ``sumo://ego``, ``sumo://traffic``, ``sumo://emergency-vehicles``, ``sumo://obstacles``
+(from the world's latest observation), ``sumo://vehicle/{vehicle_id}`` (one road user by id),
+``mpc://specification`` (attached now, version, pending scheduled changes), ``mpc://specification/initial``
+and ``mpc://pool`` (every primitive family and its parameters). A client that listens
+(``subscriptions/listen``) gets ``ResourceUpdated`` events as the simulation advances (observation URIs at
+most every ``publish_interval_s`` of sim time) and whenever the specification changes.
+
+Scheduling: a ``tools/call`` whose ``_meta`` carries ``"agentic-mpc/apply_at_s": t`` is validated now and
+applied when the simulation reaches sim time t (the agent's lockstep mode). Without it a call applies at once.
+
+Connecting an MCP host
+----------------------
+Claude Desktop (``claude_desktop_config.json``)::
+
+    {"mcpServers": {"agentic-mpc": {"command": "agentic-mpc", "args": ["serve", "--transport", "stdio"]}}}
+
+(use the absolute path of the ``agentic-mpc`` script of your virtual environment if it is not on PATH).
+MCP Inspector, command-line mode::
+
+    npx @modelcontextprotocol/inspector --cli agentic-mpc serve --transport stdio --method tools/list
+    npx @modelcontextprotocol/inspector --cli agentic-mpc serve --transport stdio \\
+        --method tools/call --tool-name run_left_lane --tool-arg v_ref=0
+    npx @modelcontextprotocol/inspector --cli agentic-mpc serve --transport stdio \\
+        --method resources/read --uri sumo://traffic
+
+(these three were run against this server with ``@modelcontextprotocol/inspector`` 0.15.0 from npm). Over HTTP:
+``agentic-mpc serve --transport http --port 8765``, then point the host at ``http://127.0.0.1:8765/mcp``
+(streamable HTTP). From Python::
+
+    from mcp import Client, StdioServerParameters
+    params = StdioServerParameters(command="agentic-mpc", args=["serve", "--transport", "stdio"])
+    async with Client(params) as client:
+        await client.call_tool("run_left_lane", {"v_ref": 0})
+        traffic = await client.read_resource("sumo://traffic")
+        async with client.listen(resource_subscriptions=["sumo://traffic"]) as events:
+            async for event in events: ...
+"""
+
+# No `from __future__ import annotations`: the SDK reads the tool closures' annotations at runtime.
+import asyncio
+import json
+import logging
+import math
+import threading
+from collections.abc import Callable
+from typing import Annotated, Any, Literal
+
+import anyio.lowlevel
+import jsonschema
+from mcp.server.mcpserver import Context, MCPServer
+from mcp.server.mcpserver.exceptions import ResourceNotFoundError, ToolError
+from mcp.server.mcpserver.tools import Tool
+from mcp.server.subscriptions import ResourceUpdated, ServerEvent
+from mcp_types import CallToolResult, TextContent
+from pydantic import Field
+
+from agentic_mpc.primitives import Specification
+from agentic_mpc.primitives.pool import describe_pool
+from agentic_mpc.tools import ControllerTools, ToolCallError
+
+logger = logging.getLogger(__name__)
+
+APPLY_AT_META_KEY = "agentic-mpc/apply_at_s"
+"""Request ``_meta`` key: apply the tool call's change at this sim time (lockstep)."""
+
+OBSERVATION_URIS = ("sumo://ego", "sumo://traffic", "sumo://emergency-vehicles", "sumo://obstacles")
+SPECIFICATION_URI = "mpc://specification"
+
+ObservationSource = Callable[[], dict[str, Any]]
+
+
+class ThreadSafeSubscriptionBus:
+    """A ``SubscriptionBus`` that may be published to from any thread.
+
+    The SDK's in-memory bus calls listeners directly, which is only safe on the listener's own event loop.
+    The simulation publishes from its own thread, and the embedded agent's in-process server runs on the
+    agent's loop: so each listener is remembered with the loop it subscribed on and called there.
+    """
+
+    def __init__(self) -> None:
+        self._listeners: dict[object, tuple[asyncio.AbstractEventLoop | None, Callable[[ServerEvent], None]]] = {}
+        self._lock = threading.Lock()
+
+    async def publish(self, event: ServerEvent) -> None:
+        self.publish_threadsafe(event)
+        await anyio.lowlevel.checkpoint()
+
+    def subscribe(self, listener: Callable[[ServerEvent], None]) -> Callable[[], None]:
+        try:
+            loop: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()
+        except RuntimeError:
+            loop = None
+        token = object()
+        with self._lock:
+            self._listeners[token] = (loop, listener)
+
+        def unsubscribe() -> None:
+            with self._lock:
+                self._listeners.pop(token, None)
+
+        return unsubscribe
+
+    @property
+    def listener_count(self) -> int:
+        return len(self._listeners)
+
+    def publish_threadsafe(self, event: ServerEvent) -> None:
+        with self._lock:
+            listeners = list(self._listeners.values())
+        if not listeners:
+            return
+        try:
+            running: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()
+        except RuntimeError:
+            running = None
+        for loop, listener in listeners:
+            if loop is None or loop is running:
+                _deliver(listener, event)
+            elif not loop.is_closed():
+                try:
+                    loop.call_soon_threadsafe(_deliver, listener, event)
+                except RuntimeError:  # the loop closed in between: that listener is gone
+                    pass
+
+
+def _deliver(listener: Callable[[ServerEvent], None], event: ServerEvent) -> None:
+    try:
+        listener(event)
+    except Exception:  # one bad listener must not starve the others
+        logger.exception("a subscription listener raised")
+
+
+def _non_finite(value: Any, path: str = "") -> str | None:
+    if isinstance(value, float) and not math.isfinite(value):
+        return path or "(value)"
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if (found := _non_finite(item, f"{path}.{key}" if path else str(key))) is not None:
+                return found
+    if isinstance(value, list):
+        for index, item in enumerate(value):
+            if (found := _non_finite(item, f"{path}[{index}]")) is not None:
+                return found
+    return None
+
+
+def validate_arguments(tool_name: str, schema: dict[str, Any], arguments: Any) -> None:
+    """Raise ``ValueError`` with a readable message if ``arguments`` break ``schema`` or are not finite."""
+    if not isinstance(arguments, dict):
+        raise ValueError(f"arguments of {tool_name} must be a JSON object, got {type(arguments).__name__}")
+    if (where := _non_finite(arguments)) is not None:
+        raise ValueError(f"invalid arguments for {tool_name}: {where} is not a finite number")
+    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(arguments), key=lambda e: list(e.path))
+    if errors:
+        details = "; ".join(f"{'.'.join(map(str, e.path)) or 'arguments'}: {e.message}" for e in errors)
+        raise ValueError(f"invalid arguments for {tool_name}: {details}")
+
+
+class ControlServer(MCPServer):
+    """``MCPServer`` that validates every call against the tool's published schema before running it.
+
+    (The SDK validates with the pydantic model behind the tool, which ignores unknown arguments; the
+    published schema refuses them, and refuses NaN, which JSON cannot carry but Python's parser accepts.)
+    """
+
+    def __init__(self, *args: Any, tools: list[Tool], **kwargs: Any) -> None:
+        super().__init__(*args, tools=tools, **kwargs)
+        self.input_schemas = {tool.name: tool.parameters for tool in tools}
+
+    async def call_tool(self, name: str, arguments: dict[str, Any], context: Any = None) -> Any:
+        schema = self.input_schemas.get(name)
+        if schema is not None:
+            try:
+                validate_arguments(name, schema, arguments)
+            except ValueError as error:
+                logger.warning("refused call %s(%r): %s", name, arguments, error)
+                raise ToolError(str(error)) from None
+        return await super().call_tool(name, arguments, context)
+
+
+class AgenticMPCServer:
+    """The MCP server over one :class:`ControllerTools` and one observation source.
+
+    ``server`` is the ``MCPServer`` (hand it to ``mcp.Client`` or run it); call :meth:`publish_observation`
+    after every simulation step (any thread) to notify listening clients.
+    """
+
+    def __init__(
+        self,
+        tools: ControllerTools,
+        latest_observation: ObservationSource,
+        *,
+        name: str = "agentic-mpc",
+        max_speed_mps: float | None = None,
+        publish_interval_s: float = 0.2,
+    ) -> None:
+        self.tools = tools
+        self.latest_observation = latest_observation
+        self.max_speed_mps = float(max_speed_mps if max_speed_mps is not None else tools.road().speed_limit_mps)
+        if not (math.isfinite(self.max_speed_mps) and self.max_speed_mps > 0):
+            raise ValueError(f"max_speed_mps must be a positive number, got {self.max_speed_mps!r}")
+        self.publish_interval_s = publish_interval_s
+        self.bus = ThreadSafeSubscriptionBus()
+        self._last_published_s = -math.inf
+        self._last_static: dict[str, str] = {}
+        self.server = ControlServer(
+            name,
+            instructions=self._instructions(),
+            subscriptions=self.bus,
+            tools=self._tools(),
+            log_level="WARNING",
+        )
+        self._register_resources()
+        tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
+
+    # ------------------------------------------------------------------ tools
+    def _instructions(self) -> str:
+        return (
+            "Tools and observations of an autonomous car driven by a model predictive controller (Fourier "
+            "MPPI). The controller minimises a sum of attached primitive objectives; the tools attach or "
+            "detach them. Speeds are in m/s (1 m/s = 3.6 km/h), between 0 and the road speed limit "
+            f"({self.max_speed_mps:g} m/s). Read mpc://specification/initial for the original specification."
+        )
+
+    def _tools(self) -> list[Tool]:
+        tools, vmax = self.tools, self.max_speed_mps
+        Speed = Annotated[
+            float,
+            Field(
+                ge=0.0,
+                le=vmax,
+                strict=True,
+                allow_inf_nan=False,
+                description=f"reference speed in m/s, from 0 (stop) to the road speed limit {vmax:g} m/s",
+            ),
+        ]
+        Side = Annotated[Literal["left", "right"], Field(description="the side to evade obstacles to")]
+
+        def lane_tool(lane: str) -> Callable[..., CallToolResult]:
+            def run_lane(v_ref: Speed, ctx: Context) -> CallToolResult:
+                return _run(lambda at: tools.run_lane(lane, v_ref, apply_at_s=at), ctx)
+
+            return run_lane
+
+        def set_reference_speed(v_ref: Speed, ctx: Context) -> CallToolResult:
+            return _run(lambda at: tools.set_reference_speed(v_ref, apply_at_s=at), ctx)
+
+        def set_preferred_steering_direction(direction: Side, ctx: Context) -> CallToolResult:
+            return _run(lambda at: tools.set_preferred_steering_direction(direction, apply_at_s=at), ctx)
+
+        def clear_preferred_steering_direction(ctx: Context) -> CallToolResult:
+            return _run(lambda at: tools.clear_preferred_steering_direction(apply_at_s=at), ctx)
+
+        lane_doc = (
+            "Drive on the {lane} lane at reference speed v_ref (m/s): attaches the path tracking objective (J1) "
+            "with the {lane} lane as reference path and detaches the other path tracking. v_ref = 0 stops the "
+            "car on that lane."
+        )
+        definitions: list[tuple[Callable[..., Any], str, str]] = [
+            (lane_tool("center"), "run_center_lane", lane_doc.format(lane="center")),
+            (lane_tool("left"), "run_left_lane", lane_doc.format(lane="left")),
+            (lane_tool("right"), "run_right_lane", lane_doc.format(lane="right")),
+            (
+                set_reference_speed,
+                "set_reference_speed",
+                "Change the reference speed v_ref (m/s) of the path tracking objective (J1), keeping the lane "
+                "the car follows now.",
+            ),
+            (
+                set_preferred_steering_direction,
+                "set_preferred_steering_direction",
+                "Prefer evading obstacles to the given side ('left' or 'right'): attaches the preferred "
+                "steering direction objective (J3).",
+            ),
+            (
+                clear_preferred_steering_direction,
+                "clear_preferred_steering_direction",
+                "Remove the preferred steering direction objective (J3): evade on whichever side is best.",
+            ),
+        ]
+        built = []
+        for fn, name, description in definitions:
+            tool = Tool.from_function(fn, name=name, description=description, structured_output=False)
+            tool.parameters["additionalProperties"] = False  # unknown arguments are an error, not ignored
+            built.append(tool)
+        return built
+
+    # ------------------------------------------------------------------ resources
+    def _register_resources(self) -> None:
+        server, slot = self.server, self.tools.slot
+
+        def observation() -> dict[str, Any]:
+            return self.latest_observation()
+
+        @server.resource("sumo://ego", name="ego", description="The ego vehicle: position, heading, speed, lane.",
+                         mime_type="application/json")
+        def ego() -> str:
+            obs = observation()
+            return _json({"time_s": obs.get("time_s"), "ego": obs.get("ego"), "collisions": obs.get("collisions", [])})
+
+        @server.resource("sumo://traffic", name="traffic", description="Every other road user near the ego.",
+                         mime_type="application/json")
+        def traffic() -> str:
+            obs = observation()
+            return _json({"time_s": obs.get("time_s"), "vehicles": obs.get("traffic", [])})
+
+        @server.resource("sumo://emergency-vehicles", name="emergency-vehicles",
+                         description="Emergency vehicles (ambulances, fire engines, police) near the ego.",
+                         mime_type="application/json")
+        def emergency_vehicles() -> str:
+            obs = observation()
+            return _json({"time_s": obs.get("time_s"), "emergency_vehicles": obs.get("emergency_vehicles", [])})
+
+        @server.resource("sumo://obstacles", name="obstacles", description="Static obstacles on the road.",
+                         mime_type="application/json")
+        def obstacles() -> str:
+            obs = observation()
+            return _json({"time_s": obs.get("time_s"), "obstacles": obs.get("obstacles", [])})
+
+        @server.resource("sumo://vehicle/{vehicle_id}", name="vehicle",
+                         description="One road user by id (the ego is 'ego').", mime_type="application/json")
+        def vehicle(vehicle_id: str) -> str:
+            obs = observation()
+            ego = obs.get("ego") or {}
+            candidates = [ego, *obs.get("traffic", []), *obs.get("emergency_vehicles", [])]
+            for candidate in candidates:
+                if str(candidate.get("id")) == vehicle_id:
+                    return _json({"time_s": obs.get("time_s"), "vehicle": candidate})
+            known = sorted({str(c.get("id")) for c in candidates if c.get("id") is not None})
+            raise ResourceNotFoundError(f"no road user {vehicle_id!r} in the simulation now (known: {known})")
+
+        @server.resource(SPECIFICATION_URI, name="specification",
+                         description="The control specification attached now, its version and pending changes.",
+                         mime_type="application/json")
+        def specification() -> str:
+            spec, version = slot.snapshot()
+            return _json({"version": version, **_spec_json(spec), "pending": self.tools.pending()})
+
+        @server.resource("mpc://specification/initial", name="initial-specification",
+                         description="The specification the car started with (restore it when a situation is over).",
+                         mime_type="application/json")
+        def initial_specification() -> str:
+            return _json(_spec_json(slot.initial))
+
+        @server.resource("mpc://pool", name="pool", description="Every primitive objective family and its parameters.",
+                         mime_type="application/json")
+        def pool() -> str:
+            return _json({"pool": describe_pool()})
+
+    # ------------------------------------------------------------------ notifications
+    def publish_observation(self, observation: dict[str, Any] | None = None) -> None:
+        """Notify listeners that the observation resources changed (call after each step, from any thread).
+
+        Ego and traffic are announced at most every ``publish_interval_s`` of sim time; emergency vehicles
+        and obstacles when their content changes.
+        """
+        if self.bus.listener_count == 0:
+            return
+        obs = observation if observation is not None else self.latest_observation()
+        t = float(obs.get("time_s", 0.0))
+        if t - self._last_published_s < self.publish_interval_s - 1e-9 and t >= self._last_published_s:
+            return
+        self._last_published_s = t
+        for uri in ("sumo://ego", "sumo://traffic"):
+            self.bus.publish_threadsafe(ResourceUpdated(uri=uri))
+        for uri, key in (("sumo://emergency-vehicles", "emergency_vehicles"), ("sumo://obstacles", "obstacles")):
+            content = json.dumps(obs.get(key, []), sort_keys=True, default=str)
+            if content != self._last_static.get(uri) or (key == "emergency_vehicles" and obs.get(key)):
+                self._last_static[uri] = content
+                self.bus.publish_threadsafe(ResourceUpdated(uri=uri))
+
+
+def _run(call: Callable[[float | None], dict[str, Any]], ctx: Context) -> CallToolResult:
+    """Run one tool with the request's scheduling metadata; refusals become MCP tool errors."""
+    meta = ctx.request_context.meta or {}
+    apply_at = meta.get(APPLY_AT_META_KEY)
+    if apply_at is not None and (isinstance(apply_at, bool) or not isinstance(apply_at, int | float)):
+        raise ToolError(f"_meta {APPLY_AT_META_KEY} must be a number (sim time in s), got {apply_at!r}")
+    try:
+        result = call(None if apply_at is None else float(apply_at))
+    except ToolCallError as error:
+        raise ToolError(str(error)) from None
+    return CallToolResult(content=[TextContent(type="text", text=_json(result))], structured_content=result)
+
+
+def _spec_json(spec: Specification) -> dict[str, Any]:
+    return {"summary": spec.summary(), "attached": spec.describe()}
+
+
+def _json(value: Any) -> str:
+    """Strict JSON: a non-finite number (a broken observation) becomes null instead of invalid ``NaN``."""
+    return json.dumps(_finite(value), default=str, allow_nan=False)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(item) for item in value]
+    return value
+
+
+def build_server(
+    tools: ControllerTools, latest_observation: ObservationSource, **options: Any
+) -> AgenticMPCServer:
+    """The MCP server over ``tools`` and ``latest_observation`` (see :class:`AgenticMPCServer`)."""
+    return AgenticMPCServer(tools, latest_observation, **options)

@@ -1,0 +1,284 @@
+"""The controller tools of the paper's "Agent Setup": plain functions that rewrite the control specification.
+
+Each tool validates its arguments, builds the new specification from the current one and swaps it into the
+:class:`~agentic_mpc.primitives.SpecificationSlot` in one atomic ``slot.update`` (the control loop reads one
+snapshot per step, so it never sees half a change). Each returns what is attached afterwards.
+
+- ``run_center_lane(v_ref)``, ``run_left_lane(v_ref)``, ``run_right_lane(v_ref)``: attach J1 (path tracking)
+  on that lane of the ego's road at ``v_ref`` m/s; it replaces whichever path tracking was attached.
+- ``set_reference_speed(v_ref)``: J1 on the lane currently tracked, at a new speed.
+- ``set_preferred_steering_direction(direction)`` / ``clear_preferred_steering_direction()``: attach or
+  detach J3.
+
+The lanes come from a *lane source*, a callable returning :class:`RoadLanes`: the ego road's lane paths by
+label ("center", "left", "right"; a road may have fewer) and its speed limit. The plain-Python world and the
+SUMO co-simulation each provide one, so the tools know nothing of either.
+
+Timing: a tool applies its change at once, unless it is given ``apply_at_s`` (sim time). Then the change is
+validated now, queued, and applied by :meth:`ControllerTools.apply_due`, which the simulation loop calls at
+the start of every control step. The agent's ``lockstep`` mode uses this so that a decision taken while sim
+time was frozen at t takes effect at t + latency, reproducibly.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import logging
+import math
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, Literal, NamedTuple
+
+from pydantic import ValidationError
+
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.primitives import (
+    PathTracking,
+    PreferredSteeringDirection,
+    Specification,
+    SpecificationError,
+    SpecificationSlot,
+)
+
+logger = logging.getLogger(__name__)
+
+LaneLabel = Literal["center", "left", "right"]
+LANE_LABELS: tuple[LaneLabel, ...] = ("center", "left", "right")
+Direction = Literal["left", "right"]
+
+PATH_TRACKING = PathTracking.kind
+STEERING_PREFERENCE = PreferredSteeringDirection.kind
+
+
+class RoadLanes(NamedTuple):
+    """The ego road as the tools see it. A plain ``(lanes, speed_limit_mps)`` tuple works too."""
+
+    lanes: Mapping[str, LanePath]
+    """Lane centre lines by label: "center", "left", "right" (a road may have fewer)."""
+    speed_limit_mps: float
+
+
+LaneSource = Callable[[], RoadLanes | tuple[Mapping[str, LanePath], float]]
+SpecificationChange = Callable[[Specification], Specification]
+
+
+class ToolCallError(ValueError):
+    """A tool call the controller refuses; the message says why, for the agent and the transcript."""
+
+
+@dataclass(frozen=True, slots=True)
+class PendingChange:
+    """A validated change waiting for its sim time (lockstep mode)."""
+
+    apply_at_s: float
+    sequence: int
+    tool: str
+    arguments: dict[str, Any]
+    change: SpecificationChange
+
+    def describe(self) -> dict[str, Any]:
+        return {"apply_at_s": self.apply_at_s, "tool": self.tool, "arguments": self.arguments}
+
+
+def attached_summary(specification: Specification) -> list[dict[str, Any]]:
+    """The attached primitives as JSON-ready dicts, the mandatory one first."""
+    return specification.describe()
+
+
+class ControllerTools:
+    """The tools over one specification slot and one lane source.
+
+    ``steering_template`` sets the parameters (form, weight, ...) J3 is attached with; only its direction is
+    the agent's to choose. Path tracking keeps the weights of the one it replaces.
+    """
+
+    def __init__(
+        self,
+        slot: SpecificationSlot,
+        lane_source: LaneSource,
+        steering_template: PreferredSteeringDirection | None = None,
+    ) -> None:
+        self.slot = slot
+        self.lane_source = lane_source
+        self.steering_template = steering_template
+        self._pending: list[tuple[float, int, PendingChange]] = []
+        self._pending_lock = threading.Lock()
+        self._sequence = itertools.count()
+
+    # ------------------------------------------------------------------ road
+    def road(self) -> RoadLanes:
+        value = self.lane_source()
+        road = value if isinstance(value, RoadLanes) else RoadLanes(*value)
+        if not math.isfinite(road.speed_limit_mps) or road.speed_limit_mps <= 0:
+            raise ToolCallError(f"the lane source gave an invalid speed limit {road.speed_limit_mps!r}")
+        return road
+
+    def check_speed(self, v_ref: Any, road: RoadLanes | None = None) -> float:
+        """``v_ref`` as a float in [0, road speed limit], or a ToolCallError saying what is wrong."""
+        if isinstance(v_ref, bool) or not isinstance(v_ref, int | float):
+            raise ToolCallError(f"v_ref must be a number in m/s, got {type(v_ref).__name__} {v_ref!r}")
+        v = float(v_ref)
+        if not math.isfinite(v):
+            raise ToolCallError(f"v_ref must be a finite number in m/s, got {v_ref!r}")
+        limit = (road or self.road()).speed_limit_mps
+        if v < 0 or v > limit + 1e-9:
+            raise ToolCallError(f"v_ref = {v:g} m/s is outside [0, {limit:g}] m/s (0 to the road speed limit)")
+        return v
+
+    # ------------------------------------------------------------------ tools
+    def run_lane(self, lane: str, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        """Attach path tracking on ``lane`` at ``v_ref`` m/s, replacing the current path tracking."""
+        road = self.road()
+        v = self.check_speed(v_ref, road)
+        path = road.lanes.get(lane)
+        if path is None:
+            raise ToolCallError(
+                f"the ego's road has no {lane} lane here (lanes: {', '.join(sorted(road.lanes)) or 'none'})"
+            )
+
+        def change(spec: Specification) -> Specification:
+            return spec.attach(_path_tracking_like(spec, path=path, lane=lane, v_ref_mps=v))
+
+        return self._apply(f"run_{lane}_lane", {"v_ref": v}, change, apply_at_s)
+
+    def run_center_lane(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        return self.run_lane("center", v_ref, apply_at_s=apply_at_s)
+
+    def run_left_lane(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        return self.run_lane("left", v_ref, apply_at_s=apply_at_s)
+
+    def run_right_lane(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        return self.run_lane("right", v_ref, apply_at_s=apply_at_s)
+
+    def set_reference_speed(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        """Path tracking on the lane tracked now (after pending changes), at ``v_ref`` m/s."""
+        road = self.road()
+        v = self.check_speed(v_ref, road)
+
+        def change(spec: Specification) -> Specification:
+            current = spec.get(PATH_TRACKING)
+            if not isinstance(current, PathTracking):
+                # Nothing tracked yet: follow the centre lane, the paper's default.
+                path = road.lanes.get("center")
+                if path is None:
+                    raise ToolCallError("no path tracking is attached and the road has no center lane")
+                return spec.attach(_path_tracking_like(spec, path=path, lane="center", v_ref_mps=v))
+            # The lane source may know a fresher path for the same label (the ego moved to another road).
+            path = road.lanes.get(current.lane, current.path)
+            return spec.attach(_path_tracking_like(spec, path=path, lane=current.lane, v_ref_mps=v))
+
+        return self._apply("set_reference_speed", {"v_ref": v}, change, apply_at_s)
+
+    def set_preferred_steering_direction(self, direction: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        """Attach J3 preferring evasion to ``direction`` ("left" or "right")."""
+        if direction not in ("left", "right"):
+            raise ToolCallError(f"direction must be 'left' or 'right', got {direction!r}")
+
+        def change(spec: Specification) -> Specification:
+            template = spec.get(STEERING_PREFERENCE) or self.steering_template
+            fields = template.model_dump() if template is not None else {}
+            fields["direction"] = direction
+            return spec.attach(_validated(PreferredSteeringDirection, fields))
+
+        return self._apply("set_preferred_steering_direction", {"direction": direction}, change, apply_at_s)
+
+    def clear_preferred_steering_direction(self, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        """Detach J3 if it is attached (doing nothing is not an error)."""
+
+        def change(spec: Specification) -> Specification:
+            return spec.detach(STEERING_PREFERENCE) if STEERING_PREFERENCE in spec else spec
+
+        return self._apply("clear_preferred_steering_direction", {}, change, apply_at_s)
+
+    # ------------------------------------------------------------------ application
+    def _apply(
+        self, tool: str, arguments: dict[str, Any], change: SpecificationChange, apply_at_s: float | None
+    ) -> dict[str, Any]:
+        checked = _checked(change)
+        if apply_at_s is None:
+            before = self.slot.current
+            new = self.slot.update(checked)
+            logger.info("%s(%s): %s", tool, arguments, new.summary())
+            return {
+                "tool": tool,
+                "arguments": arguments,
+                "applied": True,
+                "changed": new != before,
+                "version": self.slot.version,
+                "attached": attached_summary(new),
+            }
+        if not math.isfinite(apply_at_s):
+            raise ToolCallError(f"apply_at_s must be a finite sim time, got {apply_at_s!r}")
+        with self._pending_lock:
+            # Dry run on the specification it will meet (current + earlier pending), so errors surface now.
+            preview = checked(self._after_pending_locked())
+            pending = PendingChange(float(apply_at_s), next(self._sequence), tool, arguments, checked)
+            heapq.heappush(self._pending, (pending.apply_at_s, pending.sequence, pending))
+        logger.info("%s(%s) scheduled at t=%.3f s", tool, arguments, apply_at_s)
+        return {
+            "tool": tool,
+            "arguments": arguments,
+            "applied": False,
+            "apply_at_s": float(apply_at_s),
+            "attached": attached_summary(preview),
+        }
+
+    def _after_pending_locked(self) -> Specification:
+        spec = self.slot.current
+        for _, _, pending in sorted(self._pending):
+            spec = pending.change(spec)
+        return spec
+
+    def apply_due(self, now_s: float) -> list[PendingChange]:
+        """Apply every queued change whose time has come, in time then call order. Call once per control step.
+
+        A queued change that fails when applied (it cannot, after its dry run, unless the specification was
+        replaced behind the tools' back) is logged and dropped: the car keeps its last valid specification.
+        """
+        applied: list[PendingChange] = []
+        with self._pending_lock:
+            while self._pending and self._pending[0][0] <= now_s + 1e-9:
+                _, _, pending = heapq.heappop(self._pending)
+                try:
+                    new = self.slot.update(pending.change)
+                except (ToolCallError, SpecificationError, ValidationError) as error:
+                    logger.error(
+                        "scheduled %s(%s) failed at t=%.3f s: %s", pending.tool, pending.arguments, now_s, error
+                    )
+                    continue
+                logger.info("t=%.3f s: applied %s(%s): %s", now_s, pending.tool, pending.arguments, new.summary())
+                applied.append(pending)
+        return applied
+
+    def pending(self) -> list[dict[str, Any]]:
+        with self._pending_lock:
+            return [p.describe() for _, _, p in sorted(self._pending)]
+
+
+def _validated(model: type, fields: dict[str, Any]) -> Any:
+    try:
+        return model.model_validate(fields)
+    except ValidationError as error:
+        raise ToolCallError(f"invalid {model.__name__}: {error.errors(include_url=False)}") from error
+
+
+def _path_tracking_like(spec: Specification, *, path: LanePath, lane: str, v_ref_mps: float) -> PathTracking:
+    """A new J1 with the weights of the attached (or initial) one, on ``path`` at ``v_ref_mps``."""
+    current = spec.get(PATH_TRACKING)
+    fields = current.model_dump() if isinstance(current, PathTracking) else {}
+    fields.update(path=path, lane=lane, v_ref_mps=v_ref_mps)
+    return _validated(PathTracking, fields)
+
+
+def _checked(change: SpecificationChange) -> SpecificationChange:
+    """Turn the specification's own refusals into ToolCallError, so callers see one error type."""
+
+    def run(spec: Specification) -> Specification:
+        try:
+            return change(spec)
+        except (SpecificationError, ValidationError) as error:
+            raise ToolCallError(str(error)) from error
+
+    return run

@@ -1,0 +1,79 @@
+"""``agentic-mpc ask``: the calls the agent makes from the paper's initial specification, as JSON."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+
+import pytest
+
+from agentic_mpc.commands import ask
+from tests.agent.scripted_llm import ScriptedLLM, calls, text, tool_call
+
+
+def ask_main(*argv: str) -> int:
+    parser = argparse.ArgumentParser(prog="agentic-mpc")
+    ask.register(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(["ask", *argv])
+    return args.handler(args)
+
+
+@pytest.mark.parametrize(
+    ("message", "expected"),
+    [
+        ("Let's try to avoid obstacles from the right, shall we?",
+         [{"tool": "set_preferred_steering_direction", "arguments": {"direction": "right"}}]),
+        ("Let's try to avoid obstacles from the left, shall we?",
+         [{"tool": "set_preferred_steering_direction", "arguments": {"direction": "left"}}]),
+        ("An ambulance is coming behind us. We'd better let them pass.",
+         [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]),
+        ("Thank you. The ambulance is gone.", [{"tool": "run_center_lane", "arguments": {"v_ref": 15}}]),
+        ("slow down to 36 km/h", [{"tool": "set_reference_speed", "arguments": {"v_ref": 10}}]),
+        ("What a nice day!", []),
+    ],
+)
+def test_ask_prints_the_paper_calls_as_json(capsys, message, expected):
+    assert ask_main(message, "--json") == 0
+    assert json.loads(capsys.readouterr().out) == expected
+
+
+def test_ask_human_readable(capsys):
+    assert ask_main("Don't pass on the left") == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[0] == "set_preferred_steering_direction(direction='right')"
+    assert "agent: " in out
+
+
+def test_ask_with_the_openai_backend(capsys, tmp_path):
+    script = [calls(tool_call("run_left_lane", {"v_ref": 0})), text("Made way.")]
+    with ScriptedLLM(script) as llm:
+        code = ask_main("An ambulance is coming behind us.", "--backend", "openai", "--base-url", llm.base_url,
+                        "--model", "granite4:micro", "--json", "--transcript", str(tmp_path / "t.jsonl"))
+    assert code == 0
+    assert json.loads(capsys.readouterr().out) == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    assert llm.requests[0]["model"] == "granite4:micro"
+    assert (tmp_path / "t.jsonl").read_text().count('"event": "tool_call"') == 1
+
+
+def test_ask_with_an_unreachable_backend_fails_clearly(capsys):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    code = ask_main("hello", "--backend", "openai", "--base-url", f"http://127.0.0.1:{port}/v1", "--timeout-s", "2",
+                    "--json")
+    captured = capsys.readouterr()
+    assert code == 1 and json.loads(captured.out) == []
+    assert "cannot reach" in captured.err
+
+
+def test_ask_rejects_an_empty_message(capsys):
+    assert ask_main("  ", "--json") == 2
+    assert "empty message" in capsys.readouterr().err
+
+
+def test_ask_accepts_and_ignores_a_scenario_file(capsys, tmp_path):
+    assert ask_main("go 10 m/s", "--json", "--scenario", str(tmp_path / "scenario.yaml")) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == [{"tool": "set_reference_speed", "arguments": {"v_ref": 10}}]
+    assert "--scenario is not supported yet" in captured.err

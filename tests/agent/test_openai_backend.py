@@ -1,0 +1,160 @@
+"""The ``openai`` backend against a real HTTP server on 127.0.0.1 with scripted answers, malformed ones included."""
+
+from __future__ import annotations
+
+import json
+import socket
+
+import pytest
+
+from agentic_mpc.agent import Agent, AgentConfig
+from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig, parse_arguments
+from tests.agent.scripted_llm import Delay, Raw, ScriptedLLM, calls, text, tool_call
+
+PAPER_2A = "An ambulance is coming behind us. We'd better let them pass."
+
+
+def backend(llm: ScriptedLLM, **options) -> OpenAIBackend:
+    return OpenAIBackend(OpenAIConfig(base_url=llm.base_url, model="granite-test", api_key_env=None, **options))
+
+
+def test_a_well_behaved_model_gives_validated_calls_and_sees_their_results(world, server):
+    script = [calls(tool_call("run_left_lane", {"v_ref": 0}, "c1"), content="Pulling over."), text("Done.")]
+    with ScriptedLLM(script) as llm, Agent(backend(llm), server) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    assert report.text == "Done." and report.ended == "idle"
+    assert world.slot.current.get("path_tracking").lane == "left"
+    first, second = llm.requests
+    assert first["model"] == "granite-test" and first["tool_choice"] == "auto"
+    functions = {t["function"]["name"]: t["function"] for t in first["tools"]}
+    assert set(functions) == {
+        "run_center_lane", "run_left_lane", "run_right_lane", "set_reference_speed",
+        "set_preferred_steering_direction", "clear_preferred_steering_direction",
+    }
+    v_ref = functions["run_left_lane"]["parameters"]["properties"]["v_ref"]
+    assert (v_ref["minimum"], v_ref["maximum"]) == (0.0, 25.0) and "title" not in v_ref
+    assert [m["role"] for m in first["messages"]] == ["system", "user"]
+    assert "Initially attached primitives" in first["messages"][0]["content"]
+    # the second request carries the agent's call and the tool result
+    assert [m["role"] for m in second["messages"]] == ["system", "user", "assistant", "tool"]
+    assert second["messages"][2]["tool_calls"][0]["function"] == {"name": "run_left_lane", "arguments": '{"v_ref": 0}'}
+    assert second["messages"][3]["tool_call_id"] == "c1"
+    assert json.loads(second["messages"][3]["content"])["attached"][1]["lane"] == "left"
+
+
+MALFORMED = [
+    (tool_call("fly_to_the_moon", {"v_ref": 1}), "unknown tool 'fly_to_the_moon'"),
+    (tool_call("run_left_lane", '{"v_ref": 0'), "not valid JSON"),
+    (tool_call("run_left_lane", '{"v_ref": NaN}'), "NaN is not a valid JSON number"),
+    (tool_call("run_left_lane", '[0]'), "must be a JSON object"),
+    (tool_call("run_left_lane", {"v_ref": 99}), "greater than the maximum"),
+    (tool_call("run_left_lane", {"v_ref": -3}), "less than the minimum"),
+    (tool_call("set_reference_speed", {"v_ref": "fast"}), "is not of type 'number'"),
+    (tool_call("run_right_lane", {"speed": 10}), "'v_ref' is a required property"),
+    (tool_call("set_preferred_steering_direction", {"direction": "up"}), "is not one of"),
+    ({"id": "x", "type": "function", "function": {"arguments": "{}"}}, "without a function name"),
+]
+
+
+def test_every_malformed_answer_becomes_a_tool_error_for_the_model_and_changes_nothing(world, server):
+    script = [calls(call) for call, _ in MALFORMED]
+    script += [calls(tool_call("run_left_lane", {"v_ref": 0})), text("Done at last.")]
+    config = AgentConfig(max_rounds_per_step=len(script) + 1, max_consecutive_errors=len(MALFORMED) + 1)
+    with ScriptedLLM(script) as llm, Agent(backend(llm), server, config) as agent:
+        report = agent.deliver(PAPER_2A).result(60)
+    assert report.ended == "idle" and report.text == "Done at last."
+    assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    assert world.slot.version == 1  # only the valid call reached the controller
+    errors = [c["error"] for c in report.tool_calls if not c["ok"]]
+    for (_, expected), error in zip(MALFORMED, errors, strict=True):
+        assert expected in error
+    # each error went back to the model as a tool message answering its call
+    last_request = llm.requests[len(MALFORMED)]["messages"]
+    tool_messages = [m for m in last_request if m["role"] == "tool"]
+    assert len(tool_messages) == len(MALFORMED)
+    assert all(m["content"].startswith("Error: ") for m in tool_messages)
+    assert tool_messages[0]["content"].endswith("available tools: clear_preferred_steering_direction, run_center_lane, "
+                                                "run_left_lane, run_right_lane, set_preferred_steering_direction, "
+                                                "set_reference_speed")
+    # malformed arguments are echoed as {} so strict servers accept the history
+    echoed = [m for m in last_request if m["role"] == "assistant"][1]["tool_calls"][0]["function"]["arguments"]
+    assert echoed == "{}"
+    transcript_errors = [r for r in agent.transcript.records if r["event"] == "tool_result" and r["is_error"]]
+    assert len(transcript_errors) == len(MALFORMED)
+
+
+def test_a_model_that_never_gets_it_right_is_stopped_after_bounded_retries(world, server):
+    script = [calls(tool_call("run_left_lane", {"v_ref": 1000}))] * 10
+    config = AgentConfig(max_consecutive_errors=3)
+    with ScriptedLLM(script) as llm, Agent(backend(llm), server, config) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.ended == "gave_up" and len(llm.requests) == 3
+    assert world.slot.version == 0 and report.applied_calls == []
+
+
+@pytest.mark.parametrize(
+    "failure",
+    [
+        Raw(500, '{"error": "model crashed"}'),
+        Raw(200, "this is not json"),
+        Raw(200, '{"choices": []}'),
+        Raw(200, '{"choices": [{"message": "hello"}]}'),
+        Delay(3.0, text("too late")),
+    ],
+    ids=["http-500", "not-json", "no-choices", "message-not-object", "timeout"],
+)
+def test_transport_failures_are_retried(world, server, failure):
+    script = [failure, calls(tool_call("set_preferred_steering_direction", {"direction": "left"})), text("ok")]
+    config = AgentConfig(backend_attempts=3, retry_backoff_s=0.0)
+    with ScriptedLLM(script) as llm, Agent(backend(llm, timeout_s=1.0), server, config) as agent:
+        report = agent.deliver("Let's pass obstacles on the left.").result(30)
+    assert report.applied_calls == [{"tool": "set_preferred_steering_direction", "arguments": {"direction": "left"}}]
+    (error,) = agent.transcript.events("backend_error")
+    assert error["attempt"] == 1 and error["backend"] == "openai" and error["error"]
+
+
+def test_an_unreachable_backend_ends_the_step_with_a_clear_error_and_the_car_keeps_driving(world, server, tmp_path):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # nothing listens there once the socket is closed
+    dead = OpenAIBackend(OpenAIConfig(base_url=f"http://127.0.0.1:{port}/v1", api_key_env=None, timeout_s=2.0))
+    config = AgentConfig(backend_attempts=2, retry_backoff_s=0.0, transcript_path=tmp_path / "t.jsonl")
+    with Agent(dead, server, config) as agent:
+        future = agent.deliver(PAPER_2A)
+        for _ in range(25):  # the car drives on while the agent fails
+            world.step()
+        report = future.result(30)
+    assert report.ended == "backend_error" and "cannot reach" in report.errors[0]
+    assert "after 2 attempts" in report.errors[0]
+    assert world.slot.version == 0 and world.time_s == pytest.approx(1.0)
+    assert world.state[3] > 14.0
+    lines = [json.loads(line) for line in (tmp_path / "t.jsonl").read_text().splitlines()]
+    assert [r["attempt"] for r in lines if r["event"] == "backend_error"] == [1, 2]
+    assert lines[-1]["event"] == "step_end" and lines[-1]["ended"] == "backend_error"
+
+
+def test_tool_calls_written_as_text_are_understood(world, server):
+    content = 'Sure.\n<tool_call>\n{"name": "run_left_lane", "arguments": {"v_ref": 0}}\n</tool_call>'
+    with ScriptedLLM([{"role": "assistant", "content": content}, text("Done.")]) as llm:
+        with Agent(backend(llm), server) as agent:
+            report = agent.deliver(PAPER_2A).result(30)
+    assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+
+
+def test_the_api_key_is_sent_from_the_named_environment_variable(monkeypatch, world, server):
+    monkeypatch.setenv("AGENTIC_TEST_KEY", "sk-test-123")
+    with ScriptedLLM([text("hello")]) as llm:
+        keyed = OpenAIBackend(OpenAIConfig(base_url=llm.base_url, api_key_env="AGENTIC_TEST_KEY"))
+        with Agent(keyed, server) as agent:
+            report = agent.deliver("Hello!").result(30)
+    assert llm.headers[0]["Authorization"] == "Bearer sk-test-123"
+    assert report.text == "hello" and report.applied_calls == []
+
+
+def test_parse_arguments():
+    assert parse_arguments('{"v_ref": 3}') == ({"v_ref": 3}, None)
+    assert parse_arguments({"v_ref": 3}) == ({"v_ref": 3}, None)
+    assert parse_arguments("") == ({}, None)
+    assert parse_arguments('{"v_ref": Infinity}')[1].startswith("arguments are not valid JSON")
+    assert parse_arguments(42)[1] == "arguments must be a JSON object, got int"
