@@ -1,0 +1,429 @@
+"""What the ego perceives at one step: a typed, frozen snapshot built from the bridge's records.
+
+Coordinates are the network's (metres), positions are vehicle CENTRES, headings are radians from +x
+counter-clockwise (the bridge has converted SUMO's front bumper and navigational angle). Along-road
+quantities are measured on the road's centre line (:attr:`Road.reference`):
+
+- ``offset_m``: centre-to-centre distance along the road, positive when the other vehicle is ahead;
+- ``gap_m``: bumper-to-bumper clearance along the road (``|offset| - (length + ego length) / 2``);
+  negative when the two overlap lengthwise, i.e. drive alongside;
+- ``relation``: "ahead", "behind" or "alongside" (lengthwise overlap);
+- ``relative_lane``: lanes to the left of the ego's lane (+1 = one lane left, -1 = one lane right);
+- ``closing_speed_mps``: how fast the gap shrinks (positive = approaching).
+
+``Observation.to_json()`` is the stable, JSON-ready form other components (MCP resources) build on: a dict
+with exactly the keys ``time_s``, ``ego``, ``traffic``, ``emergency_vehicles``, ``obstacles``, ``collisions``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any, Literal
+
+from agentic_mpc.sumo.bridge import CollisionRecord, VehicleInfo, VehicleState
+from agentic_mpc.sumo.network import Road
+
+Relation = Literal["ahead", "behind", "alongside"]
+
+JSON_KEYS = ("time_s", "ego", "traffic", "emergency_vehicles", "obstacles", "collisions")
+
+
+def _rounded(record: Any, digits: int = 3) -> dict[str, Any]:
+    out = {}
+    for key, value in asdict(record).items():
+        if isinstance(value, float):
+            value = round(value, digits) if math.isfinite(value) else None
+        out[key] = value
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class EgoObservation:
+    """The ego as SUMO reports it (position converted to the centre)."""
+
+    id: str
+    x_m: float
+    y_m: float
+    heading_rad: float
+    speed_mps: float
+    """SUMO's speed: the distance the ego was moved in the last step divided by the step length."""
+    lane_id: str
+    """'' when the ego is off every lane (then SUMO traffic ignores it)."""
+    lane_index: int
+    lane_role: str
+    """"left"/"center"/"right" (or "lane<i>"; "" off the road)."""
+    edge_id: str
+    road_s_m: float
+    lateral_offset_m: float
+    """Signed distance of the centre from the centre line of ``lane_id`` (positive to the left); off the
+    road, from the road's centre line."""
+    length_m: float
+    width_m: float
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleObservation:
+    """Another road user near the ego."""
+
+    id: str
+    type_id: str
+    vclass: str
+    x_m: float
+    y_m: float
+    heading_rad: float
+    speed_mps: float
+    vx_mps: float
+    vy_mps: float
+    lane_id: str
+    lane_index: int
+    lane_role: str
+    edge_id: str
+    length_m: float
+    width_m: float
+    road_s_m: float
+    offset_m: float
+    gap_m: float
+    relation: Relation
+    relative_lane: int | None
+    """None when the vehicle is not on a lane of the ego's road."""
+    lane_s_m: float | None
+    """Arc length of its centre on its lane's path through the road (None off the road): for prediction."""
+    lateral_offset_m: float
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class EmergencyVehicleObservation:
+    """An emergency-class vehicle (an ambulance) anywhere in the simulation, relative to the ego."""
+
+    vehicle: VehicleObservation
+    relation: Relation
+    distance_m: float
+    """Bumper-to-bumper distance along the road (behind: its front to the ego's rear); 0 when alongside."""
+    closing_speed_mps: float
+    """How fast ``distance_m`` shrinks (positive = it is catching up / we are catching up)."""
+    time_to_reach_s: float | None
+    """distance / closing speed when closing, else None."""
+    same_lane: bool
+
+    def to_json(self) -> dict[str, Any]:
+        data = self.vehicle.to_json()
+        data.update(
+            relation=self.relation,
+            distance_m=round(self.distance_m, 3),
+            closing_speed_mps=round(self.closing_speed_mps, 3),
+            time_to_reach_s=None if self.time_to_reach_s is None else round(self.time_to_reach_s, 3),
+            same_lane=self.same_lane,
+        )
+        return data
+
+
+@dataclass(frozen=True, slots=True)
+class ObstacleObservation:
+    """A static obstacle (a stopped vehicle SUMO traffic must drive around)."""
+
+    id: str
+    type_id: str
+    x_m: float
+    y_m: float
+    heading_rad: float
+    length_m: float
+    width_m: float
+    lane_id: str
+    lane_index: int
+    lane_role: str
+    road_s_m: float
+    offset_m: float
+    gap_m: float
+    relation: Relation
+    relative_lane: int | None
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class CollisionObservation:
+    """A collision in the last step: as SUMO reported it, or an overlap of the ego's box we found ourselves.
+
+    Without the sublane model SUMO only checks vehicles on the same lane, so a sideways overlap with a
+    half-changed ego goes unreported there; ``source="geometry"`` records catch those.
+    """
+
+    collider: str
+    victim: str
+    collider_type: str
+    victim_type: str
+    collider_speed_mps: float
+    victim_speed_mps: float
+    kind: str
+    lane_id: str
+    pos_m: float
+    involves_ego: bool
+    source: Literal["sumo", "geometry"]
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class Observation:
+    """One step's snapshot of the co-simulation, from the ego's point of view."""
+
+    time_s: float
+    ego: EgoObservation
+    traffic: tuple[VehicleObservation, ...]
+    """Vehicles within sensing range (obstacles excluded; an emergency vehicle in range is here too)."""
+    emergency_vehicles: tuple[EmergencyVehicleObservation, ...]
+    obstacles: tuple[ObstacleObservation, ...]
+    collisions: tuple[CollisionObservation, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict with exactly the keys of :data:`JSON_KEYS`."""
+        return {
+            "time_s": round(self.time_s, 3),
+            "ego": self.ego.to_json(),
+            "traffic": [v.to_json() for v in self.traffic],
+            "emergency_vehicles": [e.to_json() for e in self.emergency_vehicles],
+            "obstacles": [o.to_json() for o in self.obstacles],
+            "collisions": [c.to_json() for c in self.collisions],
+        }
+
+    def vehicle(self, vehicle_id: str) -> VehicleObservation | None:
+        return next((v for v in self.traffic if v.id == vehicle_id), None)
+
+    @property
+    def ego_collided(self) -> bool:
+        return any(c.involves_ego for c in self.collisions)
+
+
+class ObservationBuilder:
+    """Turns the bridge's raw records into an :class:`Observation` relative to the ego on ``road``."""
+
+    def __init__(
+        self,
+        road: Road,
+        ego_id: str,
+        info: Callable[[str], VehicleInfo],
+        obstacle_ids: Iterable[str] = (),
+        obstacle_poses: Callable[[str], VehicleState | None] | None = None,
+    ) -> None:
+        self.road = road
+        self.ego_id = ego_id
+        self.info = info
+        self.obstacle_ids = frozenset(obstacle_ids)
+        self._obstacle_poses = obstacle_poses
+        self._position_in_order = {lane: i for i, lane in enumerate(road.left_to_right)}
+        self._lane_ids = {span.lane_id for span in road.spans.values()}
+        # Per SUMO lane of the road, everything the per-vehicle loop needs, in one dict lookup:
+        # (road lane index, start on its path, geometry factor, role, edge id, position left to right).
+        self._lanes = {
+            span.lane_id: (
+                span.road_lane_index, span.start_s_m, span.geometry_factor, road.lane_role(span.road_lane_index),
+                span.lane_id.rsplit("_", 1)[0], self._position_in_order[span.road_lane_index],
+            )
+            for span in road.spans.values()
+        }
+
+    # --- helpers -------------------------------------------------------------------------------------
+    def _edge(self, lane_id: str) -> str:
+        return lane_id.rsplit("_", 1)[0] if lane_id else ""
+
+    def _role(self, lane_id: str, lane_index: int) -> str:
+        lane = self._lanes.get(lane_id)
+        return lane[3] if lane is not None else ""
+
+    def _relative_lane(self, ego_lane: int | None, lane_id: str, lane_index: int) -> int | None:
+        lane = self._lanes.get(lane_id)
+        if ego_lane is None or lane is None:
+            return None
+        # positive = to the left: the left-to-right position decreases to the left
+        return self._position_in_order[ego_lane] - lane[5]
+
+    def _road_s(self, state: VehicleState, length_m: float) -> tuple[float, float | None]:
+        """(road_s of the centre, lane_s of the centre or None off the road)."""
+        located = self.road.lane_s(state.lane_id, state.lane_pos_m) if state.lane_id else None
+        if located is None:
+            return float(self.road.road_s(state.x_m, state.y_m)[0]), None
+        index, front_s = located
+        lane_s = front_s - 0.5 * length_m
+        return self.road.lane_to_road_s(index, lane_s), lane_s
+
+    @staticmethod
+    def _relation(offset_m: float, gap_m: float) -> Relation:
+        if gap_m < 0.0:
+            return "alongside"
+        return "ahead" if offset_m > 0.0 else "behind"
+
+    def _along_speed(self, state: VehicleState, road_s_m: float) -> float:
+        tx, ty = self.road.reference_table.tangent(road_s_m)
+        return state.speed_mps * (math.cos(state.heading_rad) * tx + math.sin(state.heading_rad) * ty)
+
+    def _ego_position(self, ego: VehicleState, length_m: float) -> tuple[float, float]:
+        """(road_s, lateral offset from its lane's centre line) of the ego's centre, projected exactly."""
+        road = self.road
+        if ego.lane_id in self._lane_ids:
+            index, front_s = road.lane_s(ego.lane_id, ego.lane_pos_m)
+            lane_guess = front_s - 0.5 * length_m
+            road_s, _ = road.reference_table.locate(ego.x_m, ego.y_m, road.lane_to_road_s(index, lane_guess))
+            _, lateral = road.lane_tables[index].locate(ego.x_m, ego.y_m, lane_guess)
+            return road_s, lateral
+        return float(road.road_s(ego.x_m, ego.y_m)[0]), float(road.lateral_from_reference(ego.x_m, ego.y_m)[0])
+
+    # --- building ------------------------------------------------------------------------------------
+    def build(
+        self,
+        time_s: float,
+        ego: VehicleState,
+        others: Sequence[VehicleState],
+        emergency: Sequence[VehicleState],
+        collisions: Sequence[CollisionRecord],
+    ) -> Observation:
+        road = self.road
+        ego_info = self.info(ego.id)
+        on_road = ego.lane_id in self._lane_ids
+        ego_lane = self._lanes[ego.lane_id][0] if on_road else None
+        ego_s, lateral = self._ego_position(ego, ego_info.length_m)
+        ego_obs = EgoObservation(
+            ego.id, ego.x_m, ego.y_m, ego.heading_rad, ego.speed_mps, ego.lane_id, ego.lane_index,
+            self._role(ego.lane_id, ego.lane_index), self._edge(ego.lane_id), ego_s, lateral,
+            ego_info.length_m, ego_info.width_m,
+        )
+        ego_half = 0.5 * ego_info.length_m
+
+        traffic: list[VehicleObservation] = []
+        obstacles: dict[str, ObstacleObservation] = {}
+        # The hot loop (every vehicle in range, every step): locals and one lane lookup per vehicle.
+        lanes, info_of, obstacle_ids = self._lanes, self.info, self.obstacle_ids
+        to_road_s = road.lane_to_road_s
+        ego_order = lanes[ego.lane_id][5] if on_road else None
+        cos, sin = math.cos, math.sin
+        for state in others:
+            info = info_of(state.id)
+            half = 0.5 * info.length_m
+            lane = lanes.get(state.lane_id)
+            if lane is None:  # off the road (or on another road): project the position
+                s, lane_s, role, edge, relative = self._road_s(state, info.length_m)[0], None, "", \
+                    self._edge(state.lane_id), None
+            else:
+                index, start, factor, role, edge, order = lane
+                lane_s = start + state.lane_pos_m * factor - half
+                s = to_road_s(index, lane_s)
+                relative = None if ego_order is None else ego_order - order
+            offset = s - ego_s
+            gap = (offset if offset > 0.0 else -offset) - half - ego_half
+            relation = "alongside" if gap < 0.0 else ("ahead" if offset > 0.0 else "behind")
+            if state.id in obstacle_ids:
+                obstacles[state.id] = ObstacleObservation(
+                    state.id, info.type_id, state.x_m, state.y_m, state.heading_rad, info.length_m, info.width_m,
+                    state.lane_id, state.lane_index, role, s, offset, gap, relation, relative,
+                )
+                continue
+            speed, heading = state.speed_mps, state.heading_rad
+            traffic.append(
+                VehicleObservation(
+                    state.id, info.type_id, info.vclass, state.x_m, state.y_m, heading, speed,
+                    speed * cos(heading), speed * sin(heading), state.lane_id, state.lane_index, role, edge,
+                    info.length_m, info.width_m, s, offset, gap, relation, relative, lane_s, state.lateral_offset_m,
+                )
+            )
+        # Obstacles beyond sensing range are still known (they do not move): the agent may plan for them.
+        if self._obstacle_poses is not None:
+            for obstacle_id in self.obstacle_ids - obstacles.keys():
+                state = self._obstacle_poses(obstacle_id)
+                if state is None:
+                    continue
+                info = self.info(obstacle_id)
+                s, _ = self._road_s(state, info.length_m)
+                offset = s - ego_s
+                gap = abs(offset) - 0.5 * info.length_m - ego_half
+                obstacles[obstacle_id] = ObstacleObservation(
+                    obstacle_id, info.type_id, state.x_m, state.y_m, state.heading_rad, info.length_m,
+                    info.width_m, state.lane_id, state.lane_index, self._role(state.lane_id, state.lane_index), s,
+                    offset, gap, self._relation(offset, gap),
+                    self._relative_lane(ego_lane, state.lane_id, state.lane_index),
+                )
+
+        ego_along = self._along_speed(ego, ego_s)
+        emergency_obs = []
+        by_id = {v.id: v for v in traffic}
+        for state in emergency:
+            vehicle = by_id.get(state.id)
+            if vehicle is None:
+                info = self.info(state.id)
+                s, lane_s = self._road_s(state, info.length_m)
+                offset = s - ego_s
+                gap = abs(offset) - 0.5 * info.length_m - ego_half
+                vehicle = VehicleObservation(
+                    state.id, info.type_id, info.vclass, state.x_m, state.y_m, state.heading_rad, state.speed_mps,
+                    state.speed_mps * math.cos(state.heading_rad), state.speed_mps * math.sin(state.heading_rad),
+                    state.lane_id, state.lane_index, self._role(state.lane_id, state.lane_index),
+                    self._edge(state.lane_id), info.length_m, info.width_m, s, offset, gap,
+                    self._relation(offset, gap), self._relative_lane(ego_lane, state.lane_id, state.lane_index),
+                    lane_s, state.lateral_offset_m,
+                )
+            along = self._along_speed(state, vehicle.road_s_m)
+            # d|offset|/dt = sign(offset) * (v_other - v_ego) along the road; closing is its negative.
+            closing = -math.copysign(1.0, vehicle.offset_m) * (along - ego_along)
+            distance = max(0.0, vehicle.gap_m)
+            emergency_obs.append(
+                EmergencyVehicleObservation(
+                    vehicle, vehicle.relation, distance, closing,
+                    distance / closing if closing > 1e-6 else None,
+                    vehicle.relative_lane == 0,
+                )
+            )
+        emergency_obs.sort(key=lambda e: e.distance_m)
+
+        collision_obs = [
+            CollisionObservation(
+                c.collider, c.victim, c.collider_type, c.victim_type, c.collider_speed_mps, c.victim_speed_mps,
+                c.kind, c.lane_id, c.pos_m, self.ego_id in (c.collider, c.victim), "sumo",
+            )
+            for c in collisions
+        ]
+        reported = {frozenset((c.collider, c.victim)) for c in collision_obs}
+        for other in (*traffic, *obstacles.values()):
+            if frozenset((self.ego_id, other.id)) in reported:
+                continue
+            if _boxes_overlap(ego_obs, other):
+                speed = getattr(other, "speed_mps", 0.0)
+                collision_obs.append(
+                    CollisionObservation(
+                        self.ego_id, other.id, ego_info.type_id, other.type_id, ego.speed_mps, speed, "overlap",
+                        ego.lane_id, ego.lane_pos_m, True, "geometry",
+                    )
+                )
+        return Observation(
+            time_s, ego_obs, tuple(traffic), tuple(emergency_obs), tuple(obstacles.values()), tuple(collision_obs)
+        )
+
+
+def _corners(x: float, y: float, heading: float, length: float, width: float) -> list[tuple[float, float]]:
+    c, s = math.cos(heading), math.sin(heading)
+    hl, hw = 0.5 * length, 0.5 * width
+    return [(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (hl, -hw), (-hl, -hw), (-hl, hw))]
+
+
+def _boxes_overlap(a: Any, b: Any) -> bool:
+    """Separating-axis test of two oriented rectangles (x_m, y_m, heading_rad, length_m, width_m)."""
+    reach = 0.5 * (math.hypot(a.length_m, a.width_m) + math.hypot(b.length_m, b.width_m))
+    if (a.x_m - b.x_m) ** 2 + (a.y_m - b.y_m) ** 2 > reach * reach:
+        return False
+    ca = _corners(a.x_m, a.y_m, a.heading_rad, a.length_m, a.width_m)
+    cb = _corners(b.x_m, b.y_m, b.heading_rad, b.length_m, b.width_m)
+    for heading in (a.heading_rad, b.heading_rad):
+        c, s = math.cos(heading), math.sin(heading)
+        for ax, ay in ((c, s), (-s, c)):
+            pa = [x * ax + y * ay for x, y in ca]
+            pb = [x * ax + y * ay for x, y in cb]
+            if max(pa) < min(pb) or max(pb) < min(pa):
+                return False
+    return True

@@ -1,0 +1,296 @@
+"""Observation -> the controller's :class:`Surroundings` (other road users as discs, road edges as lines).
+
+Prediction: each nearby vehicle keeps its speed along its own lane over the horizon (the brief's model;
+SUMO's vehicles do change lanes and brake, which the next step's observation then shows).
+
+Shape: the controller treats the ego as a point (its centre), so each other vehicle is inflated by the ego:
+the region the ego's centre must avoid is a (L + L_ego) x 2 half_w rectangle around the other vehicle's
+centre, covered by a row of discs along its heading (:func:`disc_cover`). A single disc big enough for the
+length would block the neighbouring lanes. Physically half_w = (W + W_ego)/2; for a vehicle on a lane the
+ego may enter it is at least half the lane width + ``lane_entry_margin_m``: without the sublane model SUMO
+moves the ego onto a lane as soon as its FRONT bumper crosses the lane boundary, and then reports a
+collision with anybody on that lane who overlaps it lengthwise, however far apart sideways (measured in
+Scenario 2: the ego's front 1.5 cm across the boundary next to a car's rear bumper). The margin covers the
+front bumper leading the centre sideways by L_ego/2 sin(heading) during a lane change. Lanes the ego may
+not enter (outside its corridor) keep the physical cover: the wider one would squeeze the ego in its lane.
+
+Following distance: J0 only penalises being inside a disc, so the ego would tail a slower leader right at
+the disc's edge (measured: 1.2 m bumper to bumper for seconds, then swerving). The cover of a vehicle
+ahead in the ego's lane therefore reaches back by ``leader_standstill_gap_m + leader_time_headway_s * v``
+(about the distance SUMO's own drivers keep, Krauss tau = 1 s), but never over the ego: when the gap is
+already shorter (a car cut in), the cover ends just in front of the ego. A zone that suddenly contains the
+ego makes MPPI escape sideways out of its lane (measured), not brake.
+
+Which vehicles: those that can come within reach along the road during the horizon (a 1-D test at
+constant speeds, with slack for the ego's own speed changes), capped by ``range_ahead_m`` /
+``range_behind_m``. A vehicle directly behind the ego in its own lane is left out by default: keeping its
+distance is the follower's job (SUMO's car following does it), and predicting it at constant speed into
+the ego would make the ego flee forwards.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from agentic_mpc.primitives import Circle, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.sumo.network import Road
+from agentic_mpc.sumo.observations import Observation, ObstacleObservation, VehicleObservation
+
+
+class SurroundingsConfig(BaseModel):
+    """How the observation becomes the controller's surroundings."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    clearance_margin_m: float = Field(
+        0.5, ge=0, description="disc radius = (W + W_ego)/2 + margin; also how far the cover overshoots at corners"
+    )
+    max_discs_per_vehicle: int = Field(8, ge=1, le=16)
+    lane_entry_margin_m: float | None = Field(
+        0.4, ge=0, description="cover at least half the lane width + this sideways (None: physical size only)"
+    )
+    range_ahead_m: float = Field(80.0, gt=0, description="vehicles further ahead (along the road) are left out")
+    range_behind_m: float = Field(40.0, ge=0, description="vehicles further behind are left out")
+    longitudinal_slack_m: float = Field(
+        12.0, ge=0, description="a vehicle is relevant if it comes this close (beyond its cover) within the horizon"
+    )
+    ignore_followers_in_lane: bool = Field(True, description="leave out vehicles right behind in the ego's lane")
+    leader_time_headway_s: float = Field(
+        1.0, ge=0, description="the cover of a vehicle ahead in the ego's lane reaches back this headway"
+    )
+    leader_standstill_gap_m: float = Field(2.0, ge=0, description="... plus this gap (the ego keeps its distance)")
+    edges: Literal["road", "corridor", "none"] = Field(
+        "road",
+        description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"
+        " (those its box overlaps + the lane J1 tracks); or none",
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class DiscCover:
+    """Discs covering the region the ego's centre must avoid around one vehicle."""
+
+    offsets_m: tuple[float, ...]
+    """Along the vehicle's heading from its centre."""
+    radius_m: float
+    spacing_m: float = 0.0
+    """The largest disc spacing that still covers the rectangle's sides (for extending the row)."""
+
+
+def disc_cover(
+    length_m: float,
+    width_m: float,
+    ego_length_m: float,
+    ego_width_m: float,
+    margin_m: float = 0.5,
+    max_discs: int = 8,
+    min_half_width_m: float = 0.0,
+) -> DiscCover:
+    """Discs covering the rectangle the ego's centre must avoid around another vehicle's centre:
+    half length (L + L_ego)/2, half width max((W + W_ego)/2, ``min_half_width_m``).
+
+    Radius r = half width + margin. The end discs sit so that they reach the rectangle's corners, and the
+    discs are close enough that the long sides are covered between them too; the margin is what makes
+    that possible (with margin 0 the corners would need infinitely many discs).
+    """
+    half_w = max(0.5 * (width_m + ego_width_m), min_half_width_m)
+    half_l = 0.5 * (length_m + ego_length_m)
+    radius = half_w + margin_m
+    if margin_m <= 0.0 or half_l <= radius:
+        return DiscCover((0.0,), math.hypot(half_l, half_w) + margin_m)
+    chord = math.sqrt(radius * radius - half_w * half_w)  # half the side length one disc covers at |lat| = half_w
+    end = max(0.0, half_l - chord)
+    count = min(max_discs, math.ceil(end / chord) + 1)
+    if count == 1:
+        return DiscCover((0.0,), radius, 2.0 * chord)
+    return DiscCover(tuple(float(o) for o in np.linspace(-end, end, count)), radius, 2.0 * chord)
+
+
+def obstacle_circles(
+    obstacle: ObstacleObservation, ego_length_m: float, ego_width_m: float, margin_m: float = 0.5
+) -> tuple[Circle, ...]:
+    """J2 circles for a stopped-vehicle obstacle (the same cover as moving vehicles get in J0)."""
+    cover = disc_cover(obstacle.length_m, obstacle.width_m, ego_length_m, ego_width_m, margin_m)
+    c, s = math.cos(obstacle.heading_rad), math.sin(obstacle.heading_rad)
+    return tuple(
+        Circle(x_m=obstacle.x_m + o * c, y_m=obstacle.y_m + o * s, radius_m=cover.radius_m, label=obstacle.id)
+        for o in cover.offsets_m
+    )
+
+
+class SurroundingsBuilder:
+    """Builds :class:`Surroundings` for the controller's horizon from an observation."""
+
+    def __init__(
+        self,
+        road: Road,
+        ego_length_m: float,
+        ego_width_m: float,
+        horizon: int,
+        dt_s: float,
+        config: SurroundingsConfig = SurroundingsConfig(),
+    ) -> None:
+        self.road = road
+        self.ego_length_m = ego_length_m
+        self.ego_width_m = ego_width_m
+        self.horizon = horizon
+        self.dt_s = dt_s
+        self.config = config
+        self._steps = dt_s * np.arange(1, horizon + 1)  # k = 1..H: the rollouts' states
+        self._horizon_s = horizon * dt_s
+        self._unit_left = np.array([-1.0, 1.0])
+        # Lateral bounds (left, right) of each lane from the road's centre line (lanes run parallel to it).
+        middle = 0.5 * road.reference.length_m
+        bounds = []
+        for index, path in enumerate(road.lane_paths):
+            x, y = path.points_at([path.project(*road.reference.points_at([middle])[0])])[0]
+            centre = float(road.lateral_from_reference(x, y)[0])
+            half = 0.5 * road.lane_widths_m[index]
+            bounds.append((centre + half, centre - half))
+        self._lane_bounds = tuple(bounds)
+        self._covers: dict[tuple[float, float, float], DiscCover] = {}
+        self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
+
+    def _cover(self, vehicle: VehicleObservation) -> DiscCover:
+        c = self.config
+        min_half_width = 0.0
+        if (c.lane_entry_margin_m is not None and vehicle.lane_s_m is not None
+                and vehicle.lane_index in self._enterable_lanes):
+            min_half_width = 0.5 * self.road.lane_widths_m[vehicle.lane_index] + c.lane_entry_margin_m
+        key = (vehicle.length_m, vehicle.width_m, min_half_width)
+        cover = self._covers.get(key)
+        if cover is None:
+            cover = disc_cover(vehicle.length_m, vehicle.width_m, self.ego_length_m, self.ego_width_m,
+                               c.clearance_margin_m, c.max_discs_per_vehicle, min_half_width)
+            self._covers[key] = cover
+        return cover
+
+    def relevant(self, vehicle: VehicleObservation, ego_speed_mps: float) -> bool:
+        """Whether the vehicle can come near the ego within the horizon (1-D test along the road)."""
+        c = self.config
+        offset = vehicle.offset_m
+        if offset > c.range_ahead_m or offset < -c.range_behind_m:
+            return False
+        if c.ignore_followers_in_lane and vehicle.relation == "behind" and vehicle.relative_lane == 0:
+            return False
+        # Gap centre-to-centre over t in [0, T] at constant speeds: offset + dv * t. Relevant if it gets within
+        # reach: the covered half length plus slack for the ego's own speed changes.
+        cover = self._cover(vehicle)
+        reach = cover.offsets_m[-1] + cover.radius_m + c.longitudinal_slack_m
+        if self._is_leader(vehicle):
+            reach += self._headway_m(vehicle, ego_speed_mps)
+        end = offset + (vehicle.speed_mps - ego_speed_mps) * self._horizon_s
+        if (offset > 0.0) != (end > 0.0):
+            return True
+        return min(abs(offset), abs(end)) <= reach
+
+    @staticmethod
+    def _is_leader(vehicle: VehicleObservation) -> bool:
+        return vehicle.relative_lane == 0 and vehicle.relation == "ahead"
+
+    def _headway_m(self, vehicle: VehicleObservation, ego_speed_mps: float) -> float:
+        """How far the cover of a leader is extended backwards: the following distance, capped so that the
+        extended cover still ends 0.5 m in front of the ego's centre (the ego is never inside it)."""
+        c = self.config
+        wanted = c.leader_standstill_gap_m + c.leader_time_headway_s * max(ego_speed_mps, 0.0)
+        cover = self._cover(vehicle)
+        room = vehicle.offset_m - (cover.offsets_m[-1] + cover.radius_m) - 0.5
+        return max(0.0, min(wanted, room))
+
+    def enterable_lanes(self, observation: Observation, target_lane: int | None) -> frozenset[int]:
+        """Lanes other than its own the ego may drive into: with ``edges="corridor"`` only the lane J1 tracks,
+        otherwise all. Vehicles there get the lane-entry cover (see the module docstring)."""
+        own = observation.ego.lane_index if observation.ego.lane_role else None
+        if self.config.edges == "corridor":
+            return frozenset() if target_lane is None or target_lane == own else frozenset((target_lane,))
+        return frozenset(i for i in range(self.road.lane_count) if i != own)
+
+    def discs(self, observation: Observation, target_lane: int | None = None) -> tuple[MovingDisc, ...]:
+        """Discs of the relevant vehicles, predicted at constant speed along their lanes."""
+        self._enterable_lanes = self.enterable_lanes(observation, target_lane)
+        ego_speed = observation.ego.speed_mps
+        per_lane: dict[int, list[VehicleObservation]] = {}
+        off_road: list[VehicleObservation] = []
+        for vehicle in observation.traffic:
+            if not self.relevant(vehicle, ego_speed):
+                continue
+            if vehicle.lane_s_m is None:
+                off_road.append(vehicle)
+            else:
+                per_lane.setdefault(vehicle.lane_index, []).append(vehicle)
+        discs: list[MovingDisc] = []
+        h = self.horizon
+        for index, vehicles in per_lane.items():
+            # One table lookup for all vehicles of a lane: the per-call overhead dominates at this size.
+            s = np.concatenate([v.lane_s_m + v.speed_mps * self._steps for v in vehicles])
+            points, tangents = self.road.lane_tables[index].at(s)
+            for n, vehicle in enumerate(vehicles):
+                centres = points[n * h:(n + 1) * h]
+                heading = tangents[n * h:(n + 1) * h]
+                if vehicle.lateral_offset_m:
+                    centres = centres + vehicle.lateral_offset_m * np.stack([-heading[:, 1], heading[:, 0]], axis=1)
+                self._add_discs(discs, vehicle, centres, heading, ego_speed)
+        for vehicle in off_road:
+            heading = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
+            centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * heading
+            self._add_discs(discs, vehicle, centres, np.broadcast_to(heading, centres.shape), ego_speed)
+        return tuple(discs)
+
+    def _add_discs(self, discs: list[MovingDisc], vehicle: VehicleObservation, centres: np.ndarray,
+                   heading: np.ndarray, ego_speed_mps: float) -> None:
+        cover = self._cover(vehicle)
+        offsets = list(cover.offsets_m)
+        if self._is_leader(vehicle) and cover.spacing_m > 0.0:
+            # Extend the row backwards by the following distance, at the spacing that keeps the sides covered.
+            rear = offsets[0]
+            headway = self._headway_m(vehicle, ego_speed_mps)
+            extra = math.ceil(headway / cover.spacing_m)
+            step = headway / extra if extra else 0.0
+            offsets = [rear - step * n for n in range(extra, 0, -1)] + offsets
+        for offset in offsets:
+            discs.append(MovingDisc(centres + offset * heading if offset else np.ascontiguousarray(centres),
+                                    cover.radius_m))
+
+    def corridor(self, observation: Observation, target_lane: int | None) -> tuple[float, float]:
+        """(left, right) lateral bounds from the road's centre line of the lanes the ego may use: those its
+        box overlaps now, and ``target_lane`` (the lane J1 tracks). The road's edges without a target lane."""
+        half = 0.5 * self.road.width_m
+        if target_lane is None:
+            return half, -half
+        ego = observation.ego
+        _, lateral = self.road.reference_table.locate(ego.x_m, ego.y_m, ego.road_s_m)
+        reach = 0.5 * self.ego_width_m
+        left, right = self._lane_bounds[target_lane]
+        for lane_left, lane_right in self._lane_bounds:
+            if lateral - reach < lane_left and lateral + reach > lane_right:  # the box overlaps this lane
+                left, right = max(left, lane_left), min(right, lane_right)
+        return left, right
+
+    def edges(self, road_s_m: float, speed_mps: float, bounds: tuple[float, float] | None = None
+              ) -> tuple[TrackingReference, TrackingReference]:
+        """Left and right edges where the ego is predicted to be: points ON the edges, travel tangents.
+
+        The edges are the road's centre line shifted sideways (by half the road width, or to ``bounds``),
+        sampled at the ego's along-road position advancing at its current speed.
+        """
+        points, tangents = self.road.reference_table.at(road_s_m + max(speed_mps, 0.0) * self._steps)
+        normal = tangents[:, ::-1] * self._unit_left  # (-ty, tx): towards the left
+        left, right = bounds if bounds is not None else (0.5 * self.road.width_m, -0.5 * self.road.width_m)
+        return TrackingReference(points + left * normal, tangents), TrackingReference(points + right * normal, tangents)
+
+    def build(self, observation: Observation, ego_state: np.ndarray, target_lane: int | None = None) -> Surroundings:
+        """Surroundings for a control step from ``ego_state`` = [x, y, phi, v] (our model's state at the
+        observation's time; SUMO reports the ego where we put it). ``target_lane``: the road lane J1 tracks
+        (used by ``edges="corridor"``)."""
+        left = right = None
+        mode = self.config.edges
+        if mode != "none":
+            bounds = self.corridor(observation, target_lane) if mode == "corridor" else None
+            left, right = self.edges(observation.ego.road_s_m, float(ego_state[3]), bounds)
+        discs = self.discs(observation, target_lane)
+        return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right)

@@ -1,0 +1,102 @@
+"""Co-simulation step timings: SUMO step + observation + surroundings + controller + model (on demand).
+
+    .venv/bin/python benchmarks/bench_cosim.py            # prints JSON, one object per case
+
+Cases (each in a fresh process: libsumo runs one simulation per process):
+
+- ``road_20``: the ego on the straight 800 m 3-lane road with 20 SUMO cars placed around it (the brief's
+  case: 20 vehicles, no sublane model), 500 timed steps;
+- ``road_20_sublane``: the same with SUMO's sublane model (0.4 m) for comparison;
+- ``curvy_traffic``: the curved road with the route file's background traffic after 90 s of warm-up.
+
+A step is timed as a whole (``StepRecord.step_ms``: observation, surroundings, controller, bicycle model,
+moveToXY, SUMO step); ``solve_ms`` is the controller's part. The first 50 steps (Numba cache load) are
+not counted. BLAS is pinned to one thread.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+CASES = ("road_20", "road_20_sublane", "curvy_traffic")
+
+
+def run_case(case: str, steps: int, seed: int) -> dict:
+    import numpy as np
+
+    from agentic_mpc.sumo.cosimulation import CoSimulation, EgoStart
+    from agentic_mpc.sumo.scenarios import curvy_traffic_config, scenario2_config, traffic_around
+
+    warmup_steps = 50
+    if case.startswith("road_20"):
+        # The 800 m straight road: long enough that all 20 cars stay within sensing range for 22 s.
+        ego_pos = 150.0
+        config = scenario2_config(roadblock=False, lefthand=False, seed=seed).replace(
+            ego=EgoStart(lane="center", pos_m=ego_pos, speed_mps=15.0),
+            vehicles=traffic_around(20, ego_pos, seed=seed),
+            sublane=case.endswith("sublane"),
+            sensing_range_m=300.0,  # every one of the 20 cars goes through the observation each step
+        )
+        steps = min(steps, 550 - warmup_steps)
+    elif case == "curvy_traffic":
+        config = curvy_traffic_config(seed=seed)
+    else:
+        raise ValueError(f"unknown case {case!r}; known: {CASES}")
+    started = time.perf_counter()
+    with CoSimulation(config) as sim:
+        setup_s = time.perf_counter() - started
+        for _ in range(warmup_steps + steps):
+            sim.step()
+        records = sim.records[warmup_steps:]
+        summary = sim.summary()
+        total_vehicles = sim.bridge.vehicle_count() - 1
+    step_ms = np.array([r.step_ms for r in records])
+    solve_ms = np.array([r.solve_ms for r in records])
+    in_range = np.array([r.vehicles_in_range for r in records])
+    discs = np.array([r.discs for r in records])
+    return {
+        "case": case,
+        "steps": len(records),
+        "sublane": config.sublane,
+        "vehicles_in_range_median": float(np.median(in_range)),
+        "vehicles_in_range_min": int(in_range.min()),
+        "vehicles_in_sumo_at_end": total_vehicles,
+        "discs_median": float(np.median(discs)),
+        "step_median_ms": round(float(np.median(step_ms)), 4),
+        "step_p90_ms": round(float(np.percentile(step_ms, 90)), 4),
+        "step_p99_ms": round(float(np.percentile(step_ms, 99)), 4),
+        "controller_median_ms": round(float(np.median(solve_ms)), 4),
+        "rest_median_ms": round(float(np.median(step_ms - solve_ms)), 4),
+        "setup_s": round(setup_s, 3),
+        "ego_collisions": summary.ego_collisions,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("cases", nargs="*", default=list(CASES))
+    parser.add_argument("--steps", type=int, default=500)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--inline", action="store_true", help="run the (single) case in this process")
+    args = parser.parse_args(argv)
+    if args.inline:
+        for case in args.cases:
+            print(json.dumps(run_case(case, args.steps, args.seed)))
+        return 0
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    for case in args.cases:
+        out = subprocess.run(
+            [sys.executable, __file__, case, "--inline", "--steps", str(args.steps), "--seed", str(args.seed)],
+            check=True, capture_output=True, text=True, env=env,
+        ).stdout
+        print(out.strip().splitlines()[-1])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,82 @@
+"""The per-step observation: relations to the ego, obstacles, collisions and the stable JSON form."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from agentic_mpc.sumo.cosimulation import CoSimConfig, CoSimulation, EgoStart, StaticObstacle, VehicleSpawn
+from agentic_mpc.sumo.observations import JSON_KEYS, Observation, _boxes_overlap
+from agentic_mpc.sumo.scenarios import net_files, scenario2_config
+
+NET, ROUTES = net_files("straight")
+
+
+def test_to_json_has_exactly_the_agreed_keys_and_is_json():
+    with CoSimulation(scenario2_config(lefthand=True).replace(
+        obstacles=(StaticObstacle(id="broken_down", lane="right", pos_m=400.0, in_j2=False),)
+    )) as sim:
+        sim.run(duration_s=0.2, stop_at_goal=False)
+        data = sim.observation.to_json()
+    assert tuple(data) == JSON_KEYS == ("time_s", "ego", "traffic", "emergency_vehicles", "obstacles", "collisions")
+    text = json.dumps(data)  # plain JSON types only
+    assert json.loads(text) == data
+    assert data["ego"]["id"] == "ego" and data["ego"]["lane_role"] == "center"
+    assert {v["id"] for v in data["traffic"]} == {"ambulance", "block_left", "block_right"}
+    (ambulance,) = data["emergency_vehicles"]
+    assert ambulance["id"] == "ambulance" and ambulance["vclass"] == "emergency"
+    assert ambulance["relation"] == "behind" and ambulance["distance_m"] > 0 and ambulance["closing_speed_mps"] > 0
+    (obstacle,) = data["obstacles"]  # beyond sensing range (250 m ahead) but known: obstacles do not move
+    assert obstacle["id"] == "broken_down" and obstacle["lane_role"] == "right" and obstacle["relation"] == "ahead"
+    assert data["collisions"] == []
+
+
+def test_relations_lanes_and_gaps_of_surrounding_vehicles():
+    vehicles = (
+        VehicleSpawn(id="ahead_same", lane="center", pos_m=130.0, speed_mps=15.0),
+        VehicleSpawn(id="alongside_left", lane="left", pos_m=101.0, speed_mps=15.0),
+        VehicleSpawn(id="behind_right", lane="right", pos_m=60.0, speed_mps=15.0),
+    )
+    config = CoSimConfig(net_file=NET, route_files=(ROUTES,), road="straight", vehicles=vehicles,
+                         ego=EgoStart(lane="center", pos_m=100.0, speed_mps=15.0))
+    with CoSimulation(config) as sim:
+        observation = sim.observation
+        ego = observation.ego
+        ahead, left, right = (observation.vehicle(i) for i in ("ahead_same", "alongside_left", "behind_right"))
+        front = {i: sim.bridge.vehicle_state(i).lane_pos_m for i in ("ego", "ahead_same", "behind_right")}
+    assert (ahead.relation, ahead.relative_lane, ahead.lane_role) == ("ahead", 0, "center")
+    # Straight road: bumper gaps from SUMO's front-bumper lane positions (car 4.5 m, ego 5.2 m long).
+    assert ahead.gap_m == pytest.approx(front["ahead_same"] - 4.5 - front["ego"], abs=1e-6)
+    assert ahead.offset_m == pytest.approx(ahead.x_m - ego.x_m, abs=1e-6)
+    assert (left.relation, left.relative_lane, left.lane_role) == ("alongside", 1, "left")
+    assert (right.relation, right.relative_lane, right.lane_role) == ("behind", -1, "right")
+    assert right.gap_m == pytest.approx(front["ego"] - 5.2 - front["behind_right"], abs=1e-6)
+    for vehicle in (ahead, left, right):
+        assert (vehicle.vx_mps, vehicle.vy_mps) == pytest.approx((vehicle.speed_mps, 0.0), abs=1e-9)
+        assert vehicle.vclass == "passenger" and vehicle.type_id == "car"
+    assert (ego.lane_role, ego.edge_id, ego.lane_index) == ("center", "straight", 1)
+
+
+def test_geometric_overlap_check():
+    class Box:
+        def __init__(self, x: float, y: float, heading: float, length: float = 4.5, width: float = 1.8) -> None:
+            self.x_m, self.y_m, self.heading_rad, self.length_m, self.width_m = x, y, heading, length, width
+
+    assert _boxes_overlap(Box(0, 0, 0), Box(4.4, 0, 0))
+    assert not _boxes_overlap(Box(0, 0, 0), Box(4.6, 0, 0))
+    assert not _boxes_overlap(Box(0, 0, 0), Box(0, 1.85, 0))
+    assert _boxes_overlap(Box(0, 0, 0), Box(0, 1.75, 0))
+    # Diagonal: corners near each other but separated along the rotated box's axis.
+    assert not _boxes_overlap(Box(0, 0, 0), Box(3.9, 2.6, math.radians(45)))
+    assert _boxes_overlap(Box(0, 0, 0), Box(3.0, 1.5, math.radians(45)))
+
+
+def test_observation_is_frozen():
+    with CoSimulation(CoSimConfig(net_file=NET, route_files=(ROUTES,), road="straight")) as sim:
+        observation: Observation = sim.observation
+    with pytest.raises(AttributeError):
+        observation.time_s = 1.0  # type: ignore[misc]
+    with pytest.raises(AttributeError):
+        observation.ego.x_m = 1.0  # type: ignore[misc]

@@ -1,0 +1,106 @@
+"""Observation -> Surroundings: disc covers, constant-speed prediction against SUMO, edges and corridors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from agentic_mpc.sumo.cosimulation import CoSimConfig, CoSimulation, EgoStart, VehicleSpawn
+from agentic_mpc.sumo.scenarios import net_files
+from agentic_mpc.sumo.surroundings import SurroundingsConfig, disc_cover
+
+
+@pytest.mark.parametrize(("length", "width", "min_half_width"), [(4.5, 1.8, 0.0), (12.0, 2.5, 0.0), (4.5, 1.8, 2.15)])
+def test_discs_cover_the_region_the_ego_centre_must_avoid(length, width, min_half_width):
+    cover = disc_cover(length, width, 5.2, 2.0, margin_m=0.5, min_half_width_m=min_half_width)
+    half_l, half_w = (length + 5.2) / 2, max((width + 2.0) / 2, min_half_width)
+    rng = np.random.default_rng(0)
+    inside = rng.uniform([-half_l, -half_w], [half_l, half_w], size=(20000, 2))
+    corners = np.array([[sx * half_l, sy * half_w] for sx in (-1, 1) for sy in (-1, 1)])
+    centres = np.array([[o, 0.0] for o in cover.offsets_m])
+
+    def covered(points: np.ndarray) -> np.ndarray:
+        d2 = ((points[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2)
+        return (d2 <= cover.radius_m**2 + 1e-9).any(axis=1)
+
+    assert covered(inside).all() and covered(corners).all()
+    assert cover.radius_m == pytest.approx(half_w + 0.5)  # sideways the cover is only margin larger
+    assert len(cover.offsets_m) <= 8
+
+
+NET, ROUTES = net_files("curvy")
+
+
+def curvy_config(**update: object) -> CoSimConfig:
+    base = CoSimConfig(net_file=NET, route_files=(ROUTES,), road="curvy",
+                       ego=EgoStart(lane="center", pos_m=220.0, speed_mps=15.0))
+    return base.replace(**update)
+
+
+def test_constant_speed_prediction_matches_sumo_on_a_curve():
+    """A SUMO car at constant speed on the curve is where the predicted disc centre says, one second later."""
+    car = VehicleSpawn(id="steady", lane="left", pos_m=225.0, speed_mps=15.0, max_speed_mps=15.0,
+                       imperfection=0.0, lane_changes=False)
+    # Route-file traffic starts at the road's start, far behind: only the steady car is near the ego.
+    with CoSimulation(curvy_config(vehicles=(car,))) as sim:
+        sim.run(duration_s=2.0, stop_at_goal=False)  # let it settle at exactly 15 m/s
+        observation = sim.observation
+        steady = observation.vehicle("steady")
+        assert steady.speed_mps == pytest.approx(15.0)
+        builder = sim._surroundings
+        points, _ = builder.road.lane_tables[steady.lane_index].at(steady.lane_s_m + 15.0 * builder._steps)
+        sim.run(duration_s=1.0, stop_at_goal=False)  # 25 steps
+        later = sim.observation.vehicle("steady")
+    assert np.hypot(points[24, 0] - later.x_m, points[24, 1] - later.y_m) < 0.05
+
+
+def test_followers_in_lane_are_left_out_and_neighbours_are_in():
+    vehicles = (
+        VehicleSpawn(id="follower", lane="center", pos_m=185.0, speed_mps=16.0),
+        VehicleSpawn(id="neighbour", lane="right", pos_m=222.0, speed_mps=15.0),
+        VehicleSpawn(id="far", lane="left", pos_m=330.0, speed_mps=15.0),
+    )
+    with CoSimulation(curvy_config(vehicles=vehicles)) as sim:
+        builder, observation = sim._surroundings, sim.observation
+        relevant = {v.id for v in observation.traffic if builder.relevant(v, observation.ego.speed_mps)}
+    assert "neighbour" in relevant
+    assert "follower" not in relevant  # keeping its distance is the follower's job
+    assert "far" not in relevant  # 110 m ahead at the same speed: out of reach within the 2 s horizon
+
+
+def test_a_leader_gets_a_following_distance_that_never_covers_the_ego():
+    leader = VehicleSpawn(id="leader", lane="center", pos_m=250.0, speed_mps=10.0, max_speed_mps=10.0)
+    with CoSimulation(curvy_config(vehicles=(leader,))) as sim:
+        builder, observation = sim._surroundings, sim.observation
+        ego = observation.ego
+        discs = builder.discs(observation, target_lane=1)
+        first = np.array([d.centres[0] for d in discs])
+        radius = discs[0].radius_m
+        distance = np.hypot(first[:, 0] - ego.x_m, first[:, 1] - ego.y_m)
+        plain = disc_cover(4.5, 1.8, 5.2, 2.0).offsets_m
+        assert len(discs) > len(plain)  # extended backwards
+        assert distance.min() > radius  # ... but not over the ego
+        # The extension reaches 2 m + 1 s * 15 m/s behind the plain cover when there is room (25 m gap here);
+        # centres[0] is the prediction one step ahead, when the leader has moved on by 10 m/s * 0.04 s.
+        leader_obs = observation.vehicle("leader")
+        reach_back = np.hypot(first[:, 0] - leader_obs.x_m, first[:, 1] - leader_obs.y_m).max()
+        assert reach_back == pytest.approx(abs(plain[0]) + 2.0 + 15.0 - 0.4, abs=0.02)
+
+
+def test_edges_road_and_corridor():
+    config = curvy_config(surroundings=SurroundingsConfig(edges="corridor"))
+    with CoSimulation(config) as sim:
+        builder, observation = sim._surroundings, sim.observation
+        road = sim.road
+        # Road edges: half the road width either side of the centre line.
+        left, right = builder.edges(observation.ego.road_s_m, 15.0)
+        for edge, sign in ((left, 1.0), (right, -1.0)):
+            lateral = road.lateral_from_reference(edge.points[:, 0], edge.points[:, 1])
+            assert lateral == pytest.approx(np.full(len(lateral), sign * road.width_m / 2), abs=0.02)
+        # Corridor: the ego's own lane only, or its lane and the lane J1 is told to drive.
+        assert builder.corridor(observation, target_lane=1) == pytest.approx((1.75, -1.75), abs=0.01)
+        assert builder.corridor(observation, target_lane=2) == pytest.approx((5.25, -1.75), abs=0.01)  # 2 = left
+        assert builder.corridor(observation, target_lane=None) == pytest.approx((5.25, -5.25), abs=0.01)
+        surroundings = builder.build(observation, sim.state, target_lane=1)
+        lateral = road.lateral_from_reference(*surroundings.road_left_edge.points.T)
+        assert lateral == pytest.approx(np.full(len(lateral), 1.75), abs=0.02)
