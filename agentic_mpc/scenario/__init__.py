@@ -1,0 +1,1 @@
+"""Scenarios: YAML files validated into typed objects, runs, batches, metrics."""
