@@ -35,11 +35,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--model", default=None, help="openai: model name (default granite4:micro)")
     parser.add_argument("--api-key-env", default="OPENAI_API_KEY", help="openai: environment variable with the API key")
     parser.add_argument("--timeout-s", type=float, default=120.0, help="openai: seconds per request")
-    parser.add_argument("--yield-lane", choices=("left", "right"), default="left",
-                        help="rules: where to pull over for emergency vehicles (paper: left)")
+    parser.add_argument("--yield-lane", choices=("left", "right"), default=None,
+                        help="rules: where to pull over for emergency vehicles (default: the road edge side; "
+                             "left in the paper's left-hand traffic)")
     parser.add_argument("--json", action="store_true", help="print only the JSON list of tool calls")
     parser.add_argument("--transcript", type=Path, default=None, help="write the agent's transcript (JSONL) here")
-    parser.add_argument("--scenario", type=Path, default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--scenario", type=Path, default=None,
+                        help="start from this scenario's initial specification and road (default: the paper's)")
+    parser.add_argument("--variant", default=None, help="with --scenario: the variant")
     parser.set_defaults(handler=run)
 
 
@@ -47,7 +50,7 @@ def _backend(args: argparse.Namespace):  # -> Backend
     from agentic_mpc.agent.backends import make_backend
 
     if args.backend == "rules":
-        return make_backend("rules", yield_lane=args.yield_lane)
+        return make_backend("rules", yield_lane=args.yield_lane or "left")
     options = {"api_key_env": args.api_key_env or None, "timeout_s": args.timeout_s}
     if args.base_url:
         options["base_url"] = args.base_url
@@ -64,14 +67,25 @@ def run(args: argparse.Namespace) -> int:
     from agentic_mpc.tools import ControllerTools
 
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
-    if args.scenario is not None:
-        print(f"note: --scenario is not supported yet; ignoring {args.scenario} and using the paper's initial "
-              "specification", file=sys.stderr)
     road = StraightRoad()
-    lanes = road.lanes()
+    lanes, speed_limit_mps = road.lanes(), road.speed_limit_mps
     obstacle = Circle(x_m=45.0, y_m=0.0, radius_m=2.0, label="obstacle0")
-    slot = SpecificationSlot(paper_initial_specification(lanes, v_ref_mps=15.0, obstacles=[obstacle]))
-    tools = ControllerTools(slot, lambda: (lanes, road.speed_limit_mps))
+    initial = paper_initial_specification(lanes, v_ref_mps=15.0, obstacles=[obstacle])
+    if args.scenario is not None:
+        from agentic_mpc.scenario.runner import dry_specification
+        from agentic_mpc.scenario.schema import load_scenario
+        from agentic_mpc.scenario.yaml_source import ScenarioFileError
+
+        try:
+            scenario = load_scenario(args.scenario).variant(args.variant)
+        except ScenarioFileError as error:
+            print(error, file=sys.stderr)
+            return 2
+        initial, (lanes, speed_limit_mps), lefthand = dry_specification(scenario)
+        if args.yield_lane is None:
+            args.yield_lane = "left" if lefthand else "right"
+    slot = SpecificationSlot(initial)
+    tools = ControllerTools(slot, lambda: (lanes, speed_limit_mps))
     observation = {
         "time_s": 0.0,
         "ego": {"id": "ego", "x_m": 0.0, "y_m": 0.0, "heading_rad": 0.0, "speed_mps": 15.0, "lane": "center"},

@@ -1,11 +1,14 @@
-"""``agentic-mpc serve``: drive the car and expose its controller tools and observations as an MCP server.
+"""``agentic-mpc serve [SCENARIO]``: drive the car and expose its controller tools and observations as an MCP server.
 
-For now the world is the plain-Python closed loop (:mod:`agentic_mpc.plain_world`): a straight 3-lane road,
-lanes 3.5 m apart, speed limit 25 m/s, the paper's initial specification (center lane at 15 m/s plus
-obstacle avoidance) with an obstacle 80 m ahead, a slower car in the right lane and an ambulance that comes
-up behind the ego at ``--ambulance-at-s``. It runs in real time (``--time-scale`` stretches it) in a
-background thread while the MCP server answers; the SUMO co-simulation will plug in through the same
-observation callable and lane source.
+With a SCENARIO file (``--variant``, ``--seed``), its SUMO co-simulation runs in real time (``--time-scale``
+stretches it) in a background thread while the MCP server answers: the MCP host is the agent (the
+scenario's own message timeline and agent are not used) and its tool calls apply when they arrive. The
+run's files are written to ``--out`` when the simulation ends or the server stops.
+
+Without a SCENARIO, a plain-Python world without SUMO (:mod:`agentic_mpc.plain_world`) runs: a straight
+3-lane road, lanes 3.5 m apart, speed limit 25 m/s, the paper's initial specification (center lane at
+15 m/s plus obstacle avoidance) with an obstacle 80 m ahead, a slower car in the right lane and an
+ambulance that comes up behind the ego at ``--ambulance-at-s``.
 
 Transports: ``--transport stdio`` (the default: for Claude Desktop, MCP Inspector and other hosts that
 start the server themselves; nothing but MCP goes to stdout, logs go to stderr) and ``--transport http``
@@ -25,6 +28,8 @@ import argparse
 import logging
 import os
 import sys
+import threading
+from pathlib import Path
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,6 +42,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", nargs="?", type=Path, default=None, metavar="SCENARIO",
+                        help="scenario YAML to run in SUMO (default: the plain-Python world)")
+    parser.add_argument("--variant", default=None, help="with SCENARIO: the variant (default: the base scenario)")
+    parser.add_argument("--out", type=Path, default=None, help="with SCENARIO: where the run's files go")
     parser.add_argument("--transport", choices=("stdio", "http"), default="stdio")
     parser.add_argument("--host", default="127.0.0.1", help="http: interface to listen on")
     parser.add_argument("--port", type=int, default=8765, help="http: port (the endpoint is /mcp)")
@@ -60,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
     if args.time_scale <= 0:
         print("error: --time-scale must be positive", file=sys.stderr)
         return 2
+    if args.scenario is not None:
+        return serve_scenario(args)
     config = demo_config(args.ambulance_at_s if args.ambulance_at_s >= 0 else None)
     config.seed = args.seed
     world = PlainWorld(config)
@@ -69,16 +80,62 @@ def run(args: argparse.Namespace) -> int:
     world.start(duration_s=args.duration_s, realtime=True, time_scale=args.time_scale)
     logging.getLogger(__name__).info("simulation running; MCP over %s", args.transport)
     try:
-        if args.transport == "stdio":
-            server.server.run("stdio")
-        else:
-            print(f"MCP server at http://{args.host}:{args.port}/mcp", file=sys.stderr, flush=True)
-            server.server.run("streamable-http", host=args.host, port=args.port)
+        _serve(server, args)
     except KeyboardInterrupt:
         pass
     finally:
         world.stop()
     return 0
+
+
+def _serve(server: object, args: argparse.Namespace) -> None:
+    if args.transport == "stdio":
+        server.server.run("stdio")  # type: ignore[attr-defined]
+    else:
+        print(f"MCP server at http://{args.host}:{args.port}/mcp", file=sys.stderr, flush=True)
+        server.server.run("streamable-http", host=args.host, port=args.port)  # type: ignore[attr-defined]
+
+
+def serve_scenario(args: argparse.Namespace) -> int:
+    """A SUMO scenario in real time behind the MCP server; the host is the agent."""
+    from agentic_mpc.scenario.runner import ScenarioRun
+    from agentic_mpc.scenario.schema import load_scenario
+    from agentic_mpc.scenario.yaml_source import ScenarioFileError
+
+    try:
+        scenario = load_scenario(args.scenario).variant(args.variant)
+    except ScenarioFileError as error:
+        print(error, file=sys.stderr)
+        return 2
+    if args.seed:
+        scenario = scenario.with_seed(args.seed)
+    if args.duration_s is not None:
+        scenario = scenario.model_copy(update={"duration_s": args.duration_s})
+    out = args.out or Path("out") / "serve" / scenario.name / scenario.variant / f"seed-{scenario.seed}"
+    run = ScenarioRun(scenario, out, embedded_agent=False, pace=args.time_scale,
+                      server_options={"publish_interval_s": args.publish_interval_s})
+    simulation = threading.Thread(target=_run_quietly, args=(run,), name="simulation", daemon=True)
+    simulation.start()  # libsumo stays on this one thread; MCP reads only the immutable observation
+    run.ready.wait()
+    if run.server is None:
+        print(f"error: the scenario could not start: {run.error}", file=sys.stderr)
+        return 1
+    logging.getLogger(__name__).info("%s running in SUMO; MCP over %s; files to %s", scenario.name, args.transport, out)
+    try:
+        _serve(run.server, args)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        run.stop.set()
+        simulation.join(timeout=30)
+    return 0
+
+
+def _run_quietly(run: object) -> None:
+    try:
+        run.run()  # type: ignore[attr-defined]
+    except Exception:  # recorded in run.error and the run's summary.csv; the server keeps answering
+        logging.getLogger(__name__).exception("the simulation failed")
 
 
 if __name__ == "__main__":  # python -m agentic_mpc.commands.serve (before the CLI lists the command)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -79,9 +80,10 @@ def road_lanes(cosim: CoSimulation) -> RoadLanes:
     return RoadLanes(lanes, float(limit))
 
 
-def build_backend(settings: AgentSettings) -> Any:
+def build_backend(settings: AgentSettings, lefthand: bool) -> Any:
+    """The scenario's backend; the rules backend pulls over to the road edge (left in left-hand traffic)."""
     if settings.backend == "rules":
-        return RulesBackend()
+        return RulesBackend(yield_lane="left" if lefthand else "right")
     return OpenAIBackend(
         OpenAIConfig(
             base_url=settings.base_url, model=settings.model, api_key_env=settings.api_key_env,
@@ -91,16 +93,30 @@ def build_backend(settings: AgentSettings) -> Any:
 
 
 class ScenarioRun:
-    """One run of one scenario variant with one seed; :meth:`run` drives it to the end."""
+    """One run of one scenario variant with one seed; :meth:`run` drives it to the end.
 
-    def __init__(self, scenario: Scenario, out_dir: Path) -> None:
+    ``embedded_agent=False`` leaves the agent's part to an outside MCP host (``agentic-mpc serve``): the
+    timeline's messages are not delivered and tool calls apply when they arrive. ``pace`` > 0 runs the
+    simulation at ``pace`` wall seconds per simulated second (1 = real time) instead of as fast as it goes.
+    ``ready`` is set once :attr:`server` exists; setting ``stop`` ends the run early (files are written).
+    """
+
+    def __init__(self, scenario: Scenario, out_dir: Path, *, embedded_agent: bool = True, pace: float | None = None,
+                 server_options: dict[str, Any] | None = None) -> None:
         self.scenario = scenario
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.embedded_agent = embedded_agent
+        self.pace = pace
+        self.server_options = server_options or {}
         self.trajectory_rows: list[dict[str, Any]] = []
         self.traffic_rows: list[dict[str, Any]] = []
+        self.specification_events: list[dict[str, Any]] = []
         self.recorder = MetricsRecorder()
         self.error: BaseException | None = None
+        self.server: AgenticMPCServer | None = None
+        self.ready = threading.Event()
+        self.stop = threading.Event()
 
     def run(self) -> dict[str, Any]:
         started = time.perf_counter()
@@ -112,9 +128,18 @@ class ScenarioRun:
         agent: Agent | None = None
         try:
             cosim.slot = SpecificationSlot(initial_specification(scenario.specification, cosim))
+            cosim.slot.subscribe(
+                lambda spec, version: self.specification_events.append(
+                    {"event": "specification", "sim_time_s": round(cosim.time_s, 3), "tau": None,
+                     "result": json.dumps({"version": version, "attached": spec.summary()})}
+                )
+            )
             tools = ControllerTools(cosim.slot, lambda: road_lanes(cosim), self._steering_template())
-            server = build_server(tools, lambda: cosim.observation.to_json())
-            agent = self._start_agent(server, transcript_path, lambda: cosim.time_s)
+            server = build_server(tools, lambda: cosim.observation.to_json(), **self.server_options)
+            self.server = server
+            if self.embedded_agent:
+                agent = self._start_agent(server, transcript_path, lambda: cosim.time_s, cosim.road.lefthand)
+            self.ready.set()
             self._track_obstacles(cosim)
             events = EmergencyEvents(scenario.agent.alert_distance_m)
             schedule = MessageSchedule(scenario.messages, events)
@@ -123,6 +148,7 @@ class ScenarioRun:
             self.error = error
             raise
         finally:
+            self.ready.set()  # also on failure: nobody waits forever
             if agent is not None:
                 agent.close()
             cosim.close()
@@ -133,7 +159,7 @@ class ScenarioRun:
         j3 = self.scenario.specification.preferred_steering_direction
         return PreferredSteeringDirection.model_validate(j3) if j3 else None
 
-    def _start_agent(self, server: AgenticMPCServer, transcript: Path, clock: Any) -> Agent:
+    def _start_agent(self, server: AgenticMPCServer, transcript: Path, clock: Any, lefthand: bool) -> Agent:
         settings = self.scenario.agent
         config = AgentConfig(
             timing=settings.mode,
@@ -143,7 +169,7 @@ class ScenarioRun:
             emergency_watch=EmergencyWatchConfig(distance_m=settings.alert_distance_m),
             backend_timeout_s=settings.timeout_s,
         )
-        return Agent(build_backend(settings), server, config, sim_clock=clock).start()
+        return Agent(build_backend(settings, lefthand), server, config, sim_clock=clock).start()
 
     def _track_obstacles(self, cosim: CoSimulation) -> None:
         assert cosim.observation is not None
@@ -152,17 +178,20 @@ class ScenarioRun:
             own = tuple(c for c in circles if c.label == obstacle.id)
             self.recorder.obstacles.append(ObstacleTrack(obstacle.id, own, obstacle.road_s_m, obstacle.lane_index))
 
-    def _loop(self, cosim: CoSimulation, tools: ControllerTools, server: AgenticMPCServer, agent: Agent,
+    def _loop(self, cosim: CoSimulation, tools: ControllerTools, server: AgenticMPCServer, agent: Agent | None,
               events: EmergencyEvents, schedule: MessageSchedule) -> None:
         scenario = self.scenario
         stride = scenario.outputs.traffic_stride
         end_s = scenario.duration_s - 1e-9
         lockstep = scenario.agent.mode == "lockstep"
         step = 0
-        while cosim.time_s < end_s and not (scenario.stop_at_goal and cosim.reached_goal):
+        wall_start, sim_start = time.perf_counter(), cosim.time_s
+        while cosim.time_s < end_s and not (scenario.stop_at_goal and cosim.reached_goal) and not self.stop.is_set():
             t = cosim.time_s
+            if self.pace:  # real time for an outside MCP host: the simulation waits for the wall clock
+                time.sleep(max(0.0, wall_start + (t - sim_start) * self.pace - time.perf_counter()))
             tools.apply_due(t)
-            for message in schedule.due(t):
+            for message in schedule.due(t) if agent is not None else ():
                 reply = agent.deliver(message.text, sim_time_s=t)
                 if lockstep:
                     reply.result()
@@ -172,7 +201,7 @@ class ScenarioRun:
             observation = cosim.observation
             assert observation is not None
             server.publish_observation(observation.to_json())
-            if scenario.agent.observation_messages:
+            if agent is not None and scenario.agent.observation_messages:
                 for reply in agent.observe(observation.to_json()):
                     if lockstep:
                         reply.result()
@@ -218,7 +247,8 @@ class ScenarioRun:
         trajectory.to_csv(self.out_dir / "trajectory.csv", index=False)
         pd.DataFrame(self.traffic_rows, columns=list(TRAFFIC_COLUMNS)).to_csv(self.out_dir / "traffic.csv", index=False)
         transcript = agent.transcript.records if agent is not None else []
-        events = events_table(transcript)
+        events = events_table(sorted(transcript + self.specification_events,
+                                     key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
         events.to_csv(self.out_dir / "events.csv", index=False)
         scenario = self.scenario
         summary: dict[str, Any] = {
@@ -259,6 +289,36 @@ def events_table(transcript: list[dict[str, Any]]) -> pd.DataFrame:
                 row[key] = json.dumps(row[key], default=str)
         rows.append(row)
     return pd.DataFrame(rows, columns=columns)
+
+
+def dry_specification(scenario: Scenario) -> tuple[Specification, RoadLanes, bool]:
+    """The initial specification, the road's lanes and whether it is left-hand, from the network alone
+    (no simulation: obstacles are placed where the scenario puts them, as 2.5 m discs)."""
+    from agentic_mpc.primitives import Circle
+    from agentic_mpc.sumo.network import RoadNetwork
+
+    simulation = scenario.simulation
+    network = RoadNetwork(simulation.net_file)
+    road = network.road(simulation.road)
+    settings = scenario.specification
+    primitives: list[Any] = []
+    if settings.path_tracking is not None:
+        index = road.lane_index(settings.path_tracking.lane)
+        options = settings.path_tracking.model_dump(exclude={"lane", "paper_reference"}, exclude_none=True)
+        primitives.append(PathTracking(path=road.lane_paths[index], lane=road.lane_role(index), **options))
+    if settings.obstacle_avoidance is not None and simulation.obstacles:
+        circles = []
+        for obstacle in simulation.obstacles:
+            edge = obstacle.edge_id or road.edge_ids[0]
+            x, y, _ = road.pose_on_lane(f"{edge}_{road.lane_index(obstacle.lane)}", obstacle.pos_m)
+            circles.append(Circle(x_m=x, y_m=y, radius_m=2.5, label=obstacle.id))
+        primitives.append(ObstacleAvoidance(obstacles=tuple(circles), penalty=settings.obstacle_avoidance.penalty))
+    if settings.preferred_steering_direction is not None:
+        primitives.append(PreferredSteeringDirection.model_validate(settings.preferred_steering_direction))
+    specification = Specification.of(*primitives, mandatory=Mandatory.model_validate(settings.mandatory))
+    lanes = {role: road.lane_paths[index] for role, index in road.lane_roles().items()}
+    limit = min(network.edge(edge_id).getSpeed() for edge_id in road.edge_ids)
+    return specification, RoadLanes(lanes, float(limit)), road.lefthand
 
 
 def run_scenario(scenario: Scenario, out_dir: Path) -> dict[str, Any]:

@@ -72,8 +72,28 @@ def test_ask_rejects_an_empty_message(capsys):
     assert "empty message" in capsys.readouterr().err
 
 
-def test_ask_accepts_and_ignores_a_scenario_file(capsys, tmp_path):
-    assert ask_main("go 10 m/s", "--json", "--scenario", str(tmp_path / "scenario.yaml")) == 0
+def test_ask_names_a_missing_scenario_file(capsys, tmp_path):
+    assert ask_main("go 10 m/s", "--json", "--scenario", str(tmp_path / "scenario.yaml")) == 2
     captured = capsys.readouterr()
-    assert json.loads(captured.out) == [{"tool": "set_reference_speed", "arguments": {"v_ref": 10}}]
-    assert "--scenario is not supported yet" in captured.err
+    assert captured.out == "" and f"{tmp_path / 'scenario.yaml'}: cannot read" in captured.err
+
+
+def test_ask_starts_from_a_scenario_and_yields_to_its_road_edge():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    message = "An ambulance is coming behind us. We'd better let them pass."
+
+    def ask(scenario: str) -> list:
+        result = subprocess.run(
+            [sys.executable, "-m", "agentic_mpc", "ask", message, "--scenario", str(repo / "scenarios" / scenario), "--json"],
+            capture_output=True, text=True, timeout=120,
+        )
+        assert result.returncode == 0, result.stderr
+        return json.loads(result.stdout)
+
+    # left-hand traffic (the paper's): pull over to the left; right-hand traffic: to the right
+    assert ask("paper_emergency_response.yaml") == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    assert ask("paper_steering_preference.yaml") == [{"tool": "run_right_lane", "arguments": {"v_ref": 0}}]
