@@ -1,5 +1,5 @@
 # Two commands do everything on a fresh machine with Python 3.11 and pip:
-#   make demo   set up .venv if needed, run the main job
+#   make demo   set up .venv if needed, run the main job: the paper's two scenarios in SUMO, 10 seeds each
 #   make test   set up .venv if needed, run the test suite
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
@@ -15,13 +15,18 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/agentic-mpc demo
+	$(BIN)/agentic-mpc batch scenarios/paper_steering_preference.yaml scenarios/paper_emergency_response.yaml \
+		--trials 10 --out out/paper
+	$(BIN)/agentic-mpc plot out/paper
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -m "not slow"
+
+nets: $(STAMP)
+	$(BIN)/python -m sumo_nets.build
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_controller.py

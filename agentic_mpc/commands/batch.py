@@ -62,6 +62,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
+def _print_variant_table(summary_path: Path) -> None:
+    """The per-variant outcome table (runs from a custom run function may lack its columns)."""
+    import pandas as pd
+
+    from agentic_mpc.scenario.report import variant_table
+
+    try:
+        table = variant_table(pd.read_csv(summary_path))
+    except (KeyError, OSError, pd.errors.EmptyDataError):
+        return
+    with pd.option_context("display.width", 200, "display.max_columns", 30):
+        print(table.to_string())
+
+
 def run(args: argparse.Namespace) -> int:
     from agentic_mpc.scenario.batch import BatchInputError, BatchSpec, default_workers, run_batch
 
@@ -86,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {row['status']}: {row['scenario']}/{row['variant']}/seed-{row['seed']}: {row['error']}")
     if len(problems) > MAX_LISTED:
         print(f"  ... and {len(problems) - MAX_LISTED} more: see {result.summary_path}")
+    _print_variant_table(result.summary_path)
     if result.interrupted:
         print("interrupted: run the same command again to resume", file=sys.stderr)
         return EXIT_INTERRUPTED

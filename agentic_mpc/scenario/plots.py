@@ -15,11 +15,17 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.patches import Circle as CirclePatch  # noqa: E402
 
-PALETTE = ("0.35", "tab:red", "tab:blue", "tab:green", "tab:orange", "tab:purple", "tab:brown")
+PALETTE = ("tab:green", "tab:orange", "tab:purple", "tab:brown", "tab:cyan", "tab:olive")
+PAPER_COLOURS = {"no_message": "0.35", "unaware": "0.35", "message_right": "tab:red", "message_left": "tab:blue",
+                 "yield": "tab:red", "observation_messages": "tab:red"}
+"""The paper's figures: grey without a message, red for "from the right", blue for "from the left"."""
 
 
 def _colour(variants: list[str], variant: str) -> str:
-    return PALETTE[variants.index(variant) % len(PALETTE)]
+    if variant in PAPER_COLOURS:
+        return PAPER_COLOURS[variant]
+    others = [v for v in variants if v not in PAPER_COLOURS]
+    return PALETTE[others.index(variant) % len(PALETTE)]
 
 
 def _draw_road(ax: Any, road: Any) -> None:
@@ -134,7 +140,7 @@ def batch_figures(batch_dir: Path, road_of: Any) -> list[Path]:
             continue
         variants = sorted({r.parent.parent.name for r in runs})
         road = road_of(runs[0].parent / "scenario.json")
-        fig, ax = plt.subplots(figsize=(11, 4.5))
+        fig, ax = plt.subplots(figsize=(11, 4.5), layout="constrained")
         _draw_road(ax, road)
         frames = []
         circles: list[tuple[float, float, float]] = []
@@ -161,7 +167,8 @@ def batch_figures(batch_dir: Path, road_of: Any) -> list[Path]:
         _focus(ax, frames, circles)
         ax.set_title(f"{scenario_dir.name}: {len(runs)} runs, colours by variant")
         ax.legend(fontsize=8, loc="upper right")
-        fig.tight_layout()
+        width, height = np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim())
+        fig.set_size_inches(11, float(np.clip(11 * height / width + 1.2, 2.6, 9)))  # the road's own shape
         path = batch_dir / f"{scenario_dir.name}_trajectories.png"
         fig.savefig(path, dpi=120)
         plt.close(fig)

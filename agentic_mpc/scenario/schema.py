@@ -66,7 +66,7 @@ class AgentSettings(_Strict):
 
     backend: Literal["rules", "openai"] = "rules"
     base_url: str = Field("http://localhost:11434/v1", description="openai backend: the chat-completions endpoint")
-    model: str = Field("granite4:latest", description="openai backend: the model name")
+    model: str = Field("granite4:micro", description="openai backend: the model name")
     api_key_env: str | None = Field(None, description="openai backend: environment variable holding the API key")
     timeout_s: float = Field(60.0, gt=0)
     mode: Literal["lockstep", "realtime"] = Field(
