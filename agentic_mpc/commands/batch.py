@@ -14,22 +14,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import positive_int
+from agentic_mpc.commands import non_negative_int, positive_int
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report Ctrl-C
 MAX_LISTED = 20
-
-
-def non_negative_int(text: str) -> int:
-    """argparse type: an integer >= 0, with a message that names the bad value."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be 0 or more, got {value}")
-    return value
 
 
 def _names(text: str) -> list[str]:

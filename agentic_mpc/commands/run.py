@@ -10,12 +10,14 @@ import argparse
 import sys
 from pathlib import Path
 
+from agentic_mpc.commands import non_negative_int
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("run", help="run one scenario", description=__doc__)
     parser.add_argument("file", type=Path, metavar="FILE", help="scenario YAML")
     parser.add_argument("--variant", default=None, help="variant name (default: the base scenario)")
-    parser.add_argument("--seed", type=int, default=None, help="seed (default: the scenario's)")
+    parser.add_argument("--seed", type=non_negative_int, default=None, help="seed (default: the scenario's)")
     parser.add_argument("--out", type=Path, default=None, help="output directory (default: out/<scenario>/<variant>/seed-<N>)")
     parser.set_defaults(handler=run)
 
@@ -31,9 +33,6 @@ def run(args: argparse.Namespace) -> int:
         print(error, file=sys.stderr)
         return 2
     if args.seed is not None:
-        if args.seed < 0:
-            print(f"agentic-mpc run: --seed must be >= 0, got {args.seed}", file=sys.stderr)
-            return 2
         scenario = scenario.with_seed(args.seed)
     out = args.out or Path("out") / scenario.name / scenario.variant / f"seed-{scenario.seed}"
     try:

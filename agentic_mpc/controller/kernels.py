@@ -68,6 +68,7 @@ def rollout_costs(
     z_delta,
     z_ab,
     track_ref,
+    track_tan,
     track_weight,
     circles,
     steer_sign,
@@ -160,11 +161,13 @@ def rollout_costs(
                 m = min(0.0, sign * dcmd[i])
                 costs[i] += weight * m * m
         for t in range(track_ref.shape[0]):
-            rx, ry, weight = track_ref[t, k, 0], track_ref[t, k, 1], track_weight[t]
+            rx, ry, weight, cross_weight = track_ref[t, k, 0], track_ref[t, k, 1], track_weight[t, 0], track_weight[t, 1]
+            tx, ty = track_tan[t, k, 0], track_tan[t, k, 1]
             for i in range(n_samples):
                 dx = x[i] - rx
                 dy = y[i] - ry
-                costs[i] += weight * (dx * dx + dy * dy)
+                cross = tx * dy - ty * dx
+                costs[i] += weight * (dx * dx + dy * dy) + cross_weight * cross * cross
         for o in range(circles.shape[0]):
             cx, cy, r2, weight = circles[o, 0], circles[o, 1], circles[o, 2], circles[o, 3]
             for i in range(n_samples):

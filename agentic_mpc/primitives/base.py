@@ -105,7 +105,8 @@ class FusedArrays(NamedTuple):
     """The fused kernel's view of a whole specification at one step (all weights already scaled)."""
 
     track_ref: FloatArray  # (n_track, H, 2)
-    track_weight: FloatArray  # (n_track,) per stage: w * ||p - r||^2
+    track_tan: FloatArray  # (n_track, H, 2) unit tangents at the reference points
+    track_weight: FloatArray  # (n_track, 2) per stage: w * ||p - r||^2 + w * (lambda - 1) * (cross-track)^2
     circles: FloatArray  # (n_circles, 4): cx, cy, r^2, weight per stage inside
     steer_sign: FloatArray  # (n, 2): sign, weight per stage on min(0, sign*delta)^2
     lateral_sign: FloatArray  # (n, 3): sign, weight per stage on min(0, sign*e_lat + dead zone)^2, dead zone
@@ -124,7 +125,7 @@ class FusedTerms:
     """Collects the fused-kernel terms of one step; :meth:`build` packs them into arrays."""
 
     horizon: int
-    track: list[tuple[FloatArray, float]] = field(default_factory=list)
+    track: list[tuple[FloatArray, FloatArray, float, float]] = field(default_factory=list)
     circles: list[tuple[float, float, float, float]] = field(default_factory=list)
     steer_sign: list[tuple[float, float]] = field(default_factory=list)
     lateral: list[tuple[float, float, float, FloatArray, FloatArray]] = field(default_factory=list)
@@ -144,8 +145,9 @@ class FusedTerms:
             return np.array(rows, dtype=np.float64).reshape(len(rows), width)
 
         return FusedArrays(
-            track_ref=stack([ref for ref, _ in self.track]),
-            track_weight=np.array([w for _, w in self.track], dtype=np.float64),
+            track_ref=stack([ref for ref, _, _, _ in self.track]),
+            track_tan=stack([tan for _, tan, _, _ in self.track]),
+            track_weight=table([(w, w * (lateral - 1.0)) for _, _, w, lateral in self.track], 2),
             circles=table(self.circles, 4),
             steer_sign=table(self.steer_sign, 2),
             lateral_sign=table([(sign, w, dead_zone) for sign, w, dead_zone, _, _ in self.lateral], 3),

@@ -55,6 +55,13 @@ class PathTracking(Primitive):
         "constant-speed points (which at v_ref = 0 demand an instant stop and make lane changes overshoot)",
     )
     weight: float = Field(3.0, gt=0, description="paper: 1 with normalise_by_horizon off")
+    lateral_weight: float = Field(
+        1.0,
+        gt=0,
+        le=1000,
+        description="multiplies the cross-track part of the error (1: the paper's isotropic distance); larger "
+        "keeps the lane when the ego cannot keep up with its reference (dense traffic)",
+    )
     normalise_by_horizon: bool = True
 
     @field_validator("path", mode="before")
@@ -75,6 +82,7 @@ class PathTracking(Primitive):
             "v_ref_mps": self.v_ref_mps,
             "reference_accel_mps2": self.reference_accel_mps2,
             "weight": self.weight,
+            "lateral_weight": self.lateral_weight,
             "normalise_by_horizon": self.normalise_by_horizon,
             "path_length_m": round(self.path.length_m, 3),
         }
@@ -97,19 +105,24 @@ class PathTracking(Primitive):
         else:
             points, tangents = self._ramped_reference(x, y, v, context.dt_s, context.horizon)
         stage_weight = 0.5 * per_stage(self.weight, context.horizon, self.normalise_by_horizon)
-        return PreparedPathTracking(TrackingReference(points, tangents), stage_weight)
+        return PreparedPathTracking(TrackingReference(points, tangents), stage_weight, self.lateral_weight)
 
 
 @dataclass(frozen=True, slots=True)
 class PreparedPathTracking:
     reference: TrackingReference
     stage_weight: float
+    lateral_weight: float = 1.0
 
     def cost(self, r: Rollouts) -> FloatArray:
         dx = r.x_m - self.reference.points[:, 0:1]
         dy = r.y_m - self.reference.points[:, 1:2]
-        return self.stage_weight * np.sum(dx * dx + dy * dy, axis=0)
+        squared = dx * dx + dy * dy
+        if self.lateral_weight != 1.0:  # |e|^2 + (lambda - 1) * (cross-track e)^2
+            cross = self.reference.tangents[:, 0:1] * dy - self.reference.tangents[:, 1:2] * dx
+            squared = squared + (self.lateral_weight - 1.0) * cross * cross
+        return self.stage_weight * np.sum(squared, axis=0)
 
     def add_fused_terms(self, terms: FusedTerms) -> bool:
-        terms.track.append((self.reference.points, self.stage_weight))
+        terms.track.append((self.reference.points, self.reference.tangents, self.stage_weight, self.lateral_weight))
         return True

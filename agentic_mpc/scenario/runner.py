@@ -52,25 +52,26 @@ TRAFFIC_COLUMNS = ("time_s", "id", "type_id", "vclass", "x_m", "y_m", "heading_r
                    "road_s_m", "gap_m", "relation", "emergency")
 
 
-def initial_specification(settings: SpecificationSettings, cosim: CoSimulation) -> Specification:
-    """The scenario's initial attachment, with lanes and obstacles resolved on the co-simulation's road."""
+def specification_for(settings: SpecificationSettings, road: Any, obstacle_circles: tuple[Any, ...]) -> Specification:
+    """The scenario's initial attachment, with lanes resolved on ``road`` and J2 over ``obstacle_circles``."""
     primitives: list[Any] = []
     if settings.path_tracking is not None:
         tracking = settings.path_tracking
-        index = cosim.road.lane_index(tracking.lane)
+        index = road.lane_index(tracking.lane)
         options = tracking.model_dump(exclude={"lane", "paper_reference"}, exclude_none=True)
         if tracking.paper_reference:
             options["reference_accel_mps2"] = None
-        primitives.append(
-            PathTracking(path=cosim.road.lane_paths[index], lane=cosim.road.lane_role(index), **options)
-        )
-    if settings.obstacle_avoidance is not None:
-        circles = cosim.obstacle_circles(only_in_j2=True)
-        if circles:
-            primitives.append(ObstacleAvoidance(obstacles=circles, penalty=settings.obstacle_avoidance.penalty))
+        primitives.append(PathTracking(path=road.lane_paths[index], lane=road.lane_role(index), **options))
+    if settings.obstacle_avoidance is not None and obstacle_circles:
+        primitives.append(ObstacleAvoidance(obstacles=obstacle_circles, penalty=settings.obstacle_avoidance.penalty))
     if settings.preferred_steering_direction is not None:
         primitives.append(PreferredSteeringDirection.model_validate(settings.preferred_steering_direction))
     return Specification.of(*primitives, mandatory=Mandatory.model_validate(settings.mandatory))
+
+
+def initial_specification(settings: SpecificationSettings, cosim: CoSimulation) -> Specification:
+    """The initial attachment on the co-simulation's road, J2 over the obstacles as SUMO placed them."""
+    return specification_for(settings, cosim.road, cosim.obstacle_circles(only_in_j2=True))
 
 
 def road_lanes(cosim: CoSimulation) -> RoadLanes:
@@ -300,22 +301,13 @@ def dry_specification(scenario: Scenario) -> tuple[Specification, RoadLanes, boo
     simulation = scenario.simulation
     network = RoadNetwork(simulation.net_file)
     road = network.road(simulation.road)
-    settings = scenario.specification
-    primitives: list[Any] = []
-    if settings.path_tracking is not None:
-        index = road.lane_index(settings.path_tracking.lane)
-        options = settings.path_tracking.model_dump(exclude={"lane", "paper_reference"}, exclude_none=True)
-        primitives.append(PathTracking(path=road.lane_paths[index], lane=road.lane_role(index), **options))
-    if settings.obstacle_avoidance is not None and simulation.obstacles:
-        circles = []
-        for obstacle in simulation.obstacles:
+    circles = []
+    for obstacle in simulation.obstacles if scenario.specification.obstacle_avoidance is not None else ():
+        if obstacle.in_j2:
             edge = obstacle.edge_id or road.edge_ids[0]
             x, y, _ = road.pose_on_lane(f"{edge}_{road.lane_index(obstacle.lane)}", obstacle.pos_m)
             circles.append(Circle(x_m=x, y_m=y, radius_m=2.5, label=obstacle.id))
-        primitives.append(ObstacleAvoidance(obstacles=tuple(circles), penalty=settings.obstacle_avoidance.penalty))
-    if settings.preferred_steering_direction is not None:
-        primitives.append(PreferredSteeringDirection.model_validate(settings.preferred_steering_direction))
-    specification = Specification.of(*primitives, mandatory=Mandatory.model_validate(settings.mandatory))
+    specification = specification_for(scenario.specification, road, tuple(circles))
     lanes = {role: road.lane_paths[index] for role, index in road.lane_roles().items()}
     limit = min(network.edge(edge_id).getSpeed() for edge_id in road.edge_ids)
     return specification, RoadLanes(lanes, float(limit)), road.lefthand

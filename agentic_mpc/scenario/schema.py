@@ -33,15 +33,16 @@ class PathTrackingSettings(_Strict):
     lane: LaneRef = "center"
     v_ref_mps: float = Field(..., ge=0, le=60)
     weight: float | None = Field(None, gt=0)
+    lateral_weight: float | None = Field(None, gt=0, description="cross-track emphasis (1: the paper's)")
     normalise_by_horizon: bool | None = None
     reference_accel_mps2: float | None = Field(None, gt=0)
     paper_reference: bool = Field(False, description="the paper's constant-speed reference points")
 
 
 class ObstacleAvoidanceSettings(_Strict):
-    """J2 of the initial specification over the simulation's obstacles marked ``in_j2``."""
+    """J2 of the initial specification over the simulation's obstacles marked ``in_j2`` (discs covering each
+    stopped car, inflated by the ego's half size and a margin: ``sumo.surroundings.obstacle_circles``)."""
 
-    radius_m: float = Field(2.0, gt=0, description="radius of the avoided disc around each obstacle's centre")
     penalty: float = Field(100.0, gt=0)
 
 

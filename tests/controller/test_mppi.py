@@ -31,6 +31,7 @@ def specifications():
         "J3 paper, no path": Specification.of(PreferredSteeringDirection(direction="left", form="paper")),
         "J3 lateral, no path": Specification.of(PreferredSteeringDirection(direction="left")),
         "J0 with rate term": Specification.of(Mandatory(input_rate_weight=5.0, speed_limit_mps=14.0), j1),
+        "J1 lateral weight": Specification.of(j1.model_copy(update={"lateral_weight": 6.0}), j2),
     }
 
 

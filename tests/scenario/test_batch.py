@@ -156,7 +156,7 @@ def test_bad_input_fails_before_any_run_naming_file_variant_and_argument(tmp_pat
         (["--trials", "-3"], "argument --trials: must be at least 1, got -3"),
         (["--trials", "0"], "argument --trials: must be at least 1, got 0"),
         ([], "the following arguments are required: --trials"),
-        (["--trials", "2", "--first-seed", "-1"], "argument --first-seed: must be 0 or more, got -1"),
+        (["--trials", "2", "--first-seed", "-1"], "argument --first-seed: must be at least 0, got -1"),
         (["--trials", "2", "--workers", "0"], "argument --workers: must be at least 1, got 0"),
     ):
         with pytest.raises(SystemExit) as exit_:
