@@ -18,11 +18,6 @@ from agentic_mpc.primitives import Mandatory, PreferredSteeringDirection
 from agentic_mpc.scenario.yaml_source import ScenarioFileError, YamlDocument, YamlPath, deep_merge, load_yaml
 from agentic_mpc.sumo.cosimulation import CoSimConfig, LaneRef
 
-EVENTS = ("emergency_vehicle_approaching", "emergency_vehicle_passed")
-"""Events a message can wait for: an emergency vehicle within the agent's alert distance behind the ego,
-and that vehicle ahead of the ego again."""
-
-
 class _Strict(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
@@ -84,7 +79,9 @@ class Message(_Strict):
     text: str = Field(..., min_length=1, max_length=4000)
     at_s: float | None = Field(None, ge=0)
     event: Literal["emergency_vehicle_approaching", "emergency_vehicle_passed"] | None = Field(
-        None, description="wait for this event (YAML reads a key named `on` as true, hence `event`)"
+        None,
+        description="wait for an emergency vehicle within the agent's alert distance behind the ego, or for it "
+        "to have passed (YAML reads a key named `on` as true, hence `event`)",
     )
     delay_s: float = Field(0.0, ge=0, description="with ``event``: seconds after it")
 

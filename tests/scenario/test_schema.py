@@ -39,11 +39,10 @@ def write_variant_of(tmp_path, replacements: dict[str, str], source="paper_steer
     for old, new in replacements.items():
         assert old in text, old
         text = text.replace(old, new)
-    path = tmp_path / source
+    (tmp_path / "scenarios").mkdir()
+    path = tmp_path / "scenarios" / source
     path.write_text(text)
-    for net in ("straight", "emergency"):  # keep the relative paths to the nets valid
-        (tmp_path.parent / "sumo_nets").mkdir(exist_ok=True)
-    shutil.copytree(REPO / "sumo_nets", tmp_path / ".." / "sumo_nets", dirs_exist_ok=True)
+    shutil.copytree(REPO / "sumo_nets", tmp_path / "sumo_nets")  # the file's ../sumo_nets paths stay valid
     return path
 
 
