@@ -58,14 +58,20 @@ class EgoStart(_Frozen):
     lateral_offset_m: float = Field(0.0, description="start this far left (+) of the lane centre")
 
 
-class VehicleSpawn(_Frozen):
-    """A SUMO-driven vehicle placed by the scenario (in addition to any traffic in the route files)."""
+class _Placed(_Frozen):
+    """A vehicle the scenario puts on a lane of the road: which, of what type, where."""
 
     id: str = Field(..., min_length=1)
-    type_id: str = "car"
-    edge_id: str | None = None
+    type_id: str
+    edge_id: str | None = Field(None, description="edge of the road (default: the road's first)")
     lane: LaneRef = "center"
     pos_m: float = Field(..., ge=0, description="front-bumper lane position")
+
+
+class VehicleSpawn(_Placed):
+    """A SUMO-driven vehicle placed by the scenario (in addition to any traffic in the route files)."""
+
+    type_id: str = "car"
     speed_mps: float = Field(0.0, ge=0)
     depart_s: float | None = Field(None, ge=0, description="insertion time (None: at the start)")
     max_speed_mps: float | None = Field(None, gt=0)
@@ -74,14 +80,10 @@ class VehicleSpawn(_Frozen):
     lane_changes: bool = Field(True, description="False: SUMO never changes this vehicle's lane")
 
 
-class StaticObstacle(_Frozen):
+class StaticObstacle(_Placed):
     """A stopped vehicle on a lane: SUMO traffic drives around or stops behind it, and J2 sees it."""
 
-    id: str = Field(..., min_length=1)
     type_id: str = "obstacle"
-    edge_id: str | None = None
-    lane: LaneRef = "center"
-    pos_m: float = Field(..., ge=0, description="front-bumper lane position")
     in_j2: bool = Field(True, description="add it to the initial specification's obstacle avoidance (J2)")
 
 
