@@ -8,8 +8,25 @@ from typing import Any
 import numpy as np
 
 from agentic_mpc.controller import FourierMPPI, MPPIConfig
-from agentic_mpc.obstacle_demo import ObstacleScene
-from agentic_mpc.primitives import PreferredSteeringDirection
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.primitives import (
+    Circle,
+    ObstacleAvoidance,
+    PathTracking,
+    PreferredSteeringDirection,
+    Specification,
+)
+
+
+def scenario1_specification() -> Specification:
+    """The paper's Scenario 1 with J3 attached: J1 on a straight lane at 15 m/s, J2 around a 2 m circle 45 m
+    ahead, J3 preferring the left."""
+    lane = LanePath.straight((-20.0, 0.0), (400.0, 0.0), name="center")
+    return Specification.of(
+        PathTracking(path=lane, lane="center", v_ref_mps=15.0),
+        ObstacleAvoidance(obstacles=(Circle(x_m=45.0, y_m=0.0, radius_m=2.0, label="obstacle"),)),
+        PreferredSteeringDirection(direction="left"),
+    )
 
 
 def benchmark_controller_step(horizon: int, samples: int, steps: int, backend: str = "fast", seed: int = 0) -> dict[str, Any]:
@@ -20,11 +37,10 @@ def benchmark_controller_step(horizon: int, samples: int, steps: int, backend: s
     """
     if steps < 1:
         raise ValueError(f"--steps must be at least 1, got {steps}")
-    scene = ObstacleScene()
-    specification = scene.initial_specification().attach(PreferredSteeringDirection(direction="left"))
+    specification = scenario1_specification()
     config = MPPIConfig(horizon=horizon, samples=samples, backend=backend)  # type: ignore[arg-type]
     controller = FourierMPPI(config, seed=seed)
-    state = scene.initial_state()
+    state = np.array([0.0, 0.0, 0.0, 15.0])
     started = time.perf_counter()
     controller.step(state, specification)  # compiles the kernel, or loads it from numba's cache
     first_step_s = time.perf_counter() - started

@@ -1,21 +1,223 @@
-"""Figures people would rather look at than read: bird's-eye trajectories and time series."""
+"""Figures people would rather look at than read: bird's-eye trajectories over the road (the paper's Figures
+3 and 4, colours by variant), speed and lateral offset over time with the agent's tool calls marked, and the
+ambulance's distance to the ego. One run's ``trajectory.png`` (:func:`run_figure`), a batch's figures per
+scenario (:func:`batch_figures`) and the obstacle demo's (:func:`birds_eye`, :func:`time_series`).
+
+Roads come from a lanes source: any object whose ``lanes()`` returns a
+:class:`~agentic_mpc.world.lanes.RoadLanes` (every world, or what ``agentic-mpc plot`` rebuilds of one).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")  # files only, no display needed
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Circle as CirclePatch  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from matplotlib.patches import Circle as CirclePatch
 
-from agentic_mpc.geometry import LanePath  # noqa: E402
-from agentic_mpc.primitives import Circle  # noqa: E402
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.primitives import Circle
 
-VARIANT_COLOURS = {"no_message": "0.35", "message_right": "tab:red", "message_left": "tab:blue"}
+VARIANT_COLOURS = {"no_message": "0.35", "unaware": "0.35", "message_right": "tab:red", "message_left": "tab:blue",
+                   "yield": "tab:red", "observation_messages": "tab:red"}
+"""The paper's figures: grey without a message, red for "from the right" (or yielding), blue for "from the left"."""
+PALETTE = ("tab:green", "tab:orange", "tab:purple", "tab:brown", "tab:cyan", "tab:olive")
+"""The other variants, in the order they come."""
+DEFAULT_LANE_WIDTH_M = 3.5
+"""The lane width when a road has a single lane to measure it from."""
+
+
+def colour_of(variant: str, variants: Sequence[str]) -> str:
+    """``variant``'s colour among ``variants``: the paper's if it has one, else the next in :data:`PALETTE`."""
+    if variant in VARIANT_COLOURS:
+        return VARIANT_COLOURS[variant]
+    others = [v for v in variants if v not in VARIANT_COLOURS]
+    return PALETTE[others.index(variant) % len(PALETTE)] if variant in others else PALETTE[0]
+
+
+def _lanes_of(source: Any) -> list[LanePath]:
+    """The lane centre lines of a lanes source (anything with ``lanes()``), none for None."""
+    return [] if source is None else list(source.lanes().lanes.values())
+
+
+def _draw_road(ax: Any, lanes: Sequence[LanePath], lane_width_m: float | None = None) -> None:
+    """Lane centre lines (dashed, light) and the road's edges: the outermost lanes shifted outwards by half a
+    lane width (by default the distance between adjacent centre lines at their first points)."""
+    if not lanes:
+        return
+    first = np.array([lane.coordinates[0] for lane in lanes])
+    offsets = lanes[0].lateral_offset(first[:, 0], first[:, 1])  # + left: orders the lanes across the road
+    order = np.argsort(offsets)
+    if lane_width_m is None:
+        gaps = np.diff(offsets[order])
+        gaps = gaps[gaps > 1e-6]
+        lane_width_m = float(gaps.min()) if gaps.size else DEFAULT_LANE_WIDTH_M
+    for lane in lanes:
+        xy = lane.coordinates
+        ax.plot(xy[:, 0], xy[:, 1], color="0.82", lw=0.8, ls="--", zorder=0)
+    for lane, side in ((lanes[order[-1]], 0.5), (lanes[order[0]], -0.5)):
+        xy = lane.parallel(side * lane_width_m, name="road edge").coordinates
+        ax.plot(xy[:, 0], xy[:, 1], color="0.45", lw=1.0, zorder=0)
+
+
+def _draw_obstacles(ax: Any, circles: Iterable[tuple[float, float, float]]) -> None:
+    for x, y, r in circles:
+        ax.add_patch(CirclePatch((x, y), r, color="k", alpha=0.35, zorder=1))
+
+
+def _mark_events(axes: Sequence[Any], marks: Iterable[tuple[float, str]]) -> None:
+    """Vertical lines at the marks' times on every axis, labelled on the first."""
+    for at, label in marks:
+        for ax in axes:
+            ax.axvline(at, color="tab:green", lw=0.8, ls="--")
+        axes[0].annotate(label, (at, axes[0].get_ylim()[1]), fontsize=7, rotation=90, va="top", ha="right",
+                         color="tab:green")
+
+
+def _tool_calls(events: pd.DataFrame) -> list[tuple[float, str]]:
+    """(time the call took effect, ``tool(arguments)``) of each of the agent's tool calls."""
+    if events.empty:
+        return []
+    marks = []
+    for _, call in events[events["event"] == "tool_call"].iterrows():
+        at = call["apply_at_s"] if pd.notna(call.get("apply_at_s")) else call["sim_time_s"]
+        if pd.notna(at):
+            arguments = call["arguments"]
+            short = arguments.strip("{}").replace('"', "").replace(" ", "") if isinstance(arguments, str) else ""
+            marks.append((float(at), f"{call['tool']}({short})"))
+    return marks
+
+
+def _ambulance_distance(trajectory: pd.DataFrame, traffic: pd.DataFrame) -> pd.DataFrame:
+    """Along-road distance of each emergency vehicle from the ego (negative: behind)."""
+    if traffic.empty or not traffic["emergency"].any():
+        return pd.DataFrame(columns=["time_s", "id", "distance_m"])
+    ambulance = traffic[traffic["emergency"]][["time_s", "id", "road_s_m"]]
+    ego = trajectory[["time_s", "road_s_m"]].rename(columns={"road_s_m": "ego_s_m"})
+    merged = pd.merge_asof(ambulance.sort_values("time_s"), ego.sort_values("time_s"), on="time_s")
+    merged["distance_m"] = merged["road_s_m"] - merged["ego_s_m"]
+    return merged
+
+
+def _focus(ax: Any, frames: list[pd.DataFrame], circles: list[tuple[float, float, float]], margin_m: float = 8.0) -> None:
+    """Zoom on where the ego drove, with equal scales."""
+    xs = np.concatenate([f["x_m"].to_numpy() for f in frames] + [np.array([c[0] for c in circles])])
+    ys = np.concatenate([f["y_m"].to_numpy() for f in frames] + [np.array([c[1] for c in circles])])
+    ax.set_xlim(xs.min() - margin_m, xs.max() + margin_m)
+    ax.set_ylim(ys.min() - margin_m, ys.max() + margin_m)
+    ax.set_aspect("equal", adjustable="box")  # the box takes the road's shape: long and thin on a straight
+
+
+def _save(fig: Any, path: Path, dpi: int) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
+def run_figure(out_dir: Path, world: Any, metrics: Any, title: str = "") -> Path:
+    """``trajectory.png`` of one run in ``out_dir`` (from its trajectory, traffic and events CSV files):
+    bird's-eye view over ``world``'s lanes and ``metrics``' obstacles, speed with the ambulance's distance,
+    lateral offset, the agent's tool calls marked."""
+    out_dir = Path(out_dir)
+    trajectory = pd.read_csv(out_dir / "trajectory.csv")
+    traffic = pd.read_csv(out_dir / "traffic.csv")
+    events = pd.read_csv(out_dir / "events.csv")
+    circles = [(c.x_m, c.y_m, c.radius_m) for track in metrics.obstacles for c in track.circles]
+    fig = plt.figure(figsize=(11, 7))
+    grid = fig.add_gridspec(3, 1, height_ratios=[0.7, 1, 1])
+    ax_map = fig.add_subplot(grid[0])
+    _draw_road(ax_map, _lanes_of(world))
+    _draw_obstacles(ax_map, circles)
+    ax_map.plot(trajectory["x_m"], trajectory["y_m"], color="tab:blue", lw=1.5, label="ego")
+    for vehicle_id, track in traffic[traffic["emergency"]].groupby("id") if not traffic.empty else []:
+        ax_map.plot(track["x_m"], track["y_m"], color="tab:red", lw=1, ls=":", label=f"{vehicle_id} (emergency)")
+    _focus(ax_map, [trajectory], circles)
+    ax_map.set_title(title)
+    ax_map.legend(loc="upper right", fontsize=8)
+    ax_v = fig.add_subplot(grid[1])
+    ax_v.plot(trajectory["time_s"], trajectory["v_mps"], color="tab:blue", label="speed")
+    if "v_ref_mps" in trajectory:
+        ax_v.plot(trajectory["time_s"], trajectory["v_ref_mps"], color="k", lw=0.8, ls=":", label="v_ref")
+    ax_v.set_ylabel("speed [m/s]")
+    distance = _ambulance_distance(trajectory, traffic)
+    if not distance.empty:
+        ax_d = ax_v.twinx()
+        for vehicle_id, track in distance.groupby("id"):
+            ax_d.plot(track["time_s"], track["distance_m"], color="tab:red", lw=0.8, ls="--", label=f"{vehicle_id} distance")
+        ax_d.axhline(0, color="tab:red", lw=0.4)
+        ax_d.set_ylabel("ambulance - ego [m]", color="tab:red")
+    ax_y = fig.add_subplot(grid[2], sharex=ax_v)
+    ax_y.plot(trajectory["time_s"], trajectory["tracked_lane_offset_m"], color="tab:blue", label="from tracked lane")
+    ax_y.plot(trajectory["time_s"], trajectory["lateral_offset_m"], color="0.6", lw=0.8, label="from current lane")
+    ax_y.set_ylabel("lateral offset [m]")
+    ax_y.set_xlabel("time [s]")
+    ax_y.legend(fontsize=8, loc="upper right")
+    _mark_events([ax_v, ax_y], _tool_calls(events))
+    fig.tight_layout()
+    return _save(fig, out_dir / "trajectory.png", dpi=110)
+
+
+def batch_figures(batch_dir: Path, road_of: Callable[[Path], Any]) -> list[Path]:
+    """Per scenario of a batch: all trials' trajectories over the road, colours by variant
+    (``<scenario>_trajectories.png``), and their speed, offset and ambulance distance over time
+    (``<scenario>_timeseries.png``).
+
+    ``road_of(scenario_json_path)`` gives a lanes source for the road a run used (rebuilt from its saved
+    scenario), or None to draw no road.
+    """
+    batch_dir = Path(batch_dir)
+    written = []
+    for scenario_dir in sorted(p for p in (batch_dir / "runs").iterdir() if p.is_dir()):
+        runs = sorted(scenario_dir.glob("*/seed-*/trajectory.csv"))
+        if not runs:
+            continue
+        variants = sorted({r.parent.parent.name for r in runs})
+        fig, ax = plt.subplots(figsize=(11, 4.5), layout="constrained")
+        _draw_road(ax, _lanes_of(road_of(runs[0].parent / "scenario.json")))
+        frames = []
+        circles: list[tuple[float, float, float]] = []
+        labelled: set[str] = set()
+        fig_t, (ax_v, ax_y, ax_d) = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+        for run in runs:
+            variant = run.parent.parent.name
+            colour = colour_of(variant, variants)
+            label = None if variant in labelled else variant
+            labelled.add(variant)
+            trajectory = pd.read_csv(run)
+            frames.append(trajectory)
+            ax.plot(trajectory["x_m"], trajectory["y_m"], color=colour, lw=1, alpha=0.8, label=label)
+            ax_v.plot(trajectory["time_s"], trajectory["v_mps"], color=colour, lw=0.8, alpha=0.8, label=label)
+            ax_y.plot(trajectory["time_s"], trajectory["tracked_lane_offset_m"], color=colour, lw=0.8, alpha=0.8)
+            traffic_file = run.parent / "traffic.csv"
+            if traffic_file.exists():
+                distance = _ambulance_distance(trajectory, pd.read_csv(traffic_file))
+                for _, track in distance.groupby("id"):
+                    ax_d.plot(track["time_s"], track["distance_m"], color=colour, lw=0.8, alpha=0.8)
+            obstacles_file = run.parent / "obstacles.csv"
+            if obstacles_file.exists() and not circles:
+                circles = [tuple(row) for row in pd.read_csv(obstacles_file)[["x_m", "y_m", "radius_m"]].to_numpy()]
+        _draw_obstacles(ax, circles)
+        _focus(ax, frames, circles)
+        ax.set_title(f"{scenario_dir.name}: {len(runs)} runs, colours by variant")
+        ax.legend(fontsize=8, loc="upper right")
+        width, height = np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim())
+        fig.set_size_inches(11, float(np.clip(11 * height / width + 1.2, 2.6, 9)))  # the road's own shape
+        path = _save(fig, batch_dir / f"{scenario_dir.name}_trajectories.png", dpi=120)
+        ax_v.set_ylabel("speed [m/s]")
+        ax_y.set_ylabel("offset from tracked lane [m]")
+        ax_d.set_ylabel("ambulance - ego [m]")
+        ax_d.set_xlabel("time [s]")
+        ax_v.legend(fontsize=8)
+        fig_t.tight_layout()
+        written += [path, _save(fig_t, batch_dir / f"{scenario_dir.name}_timeseries.png", dpi=110)]
+    return written
 
 
 def birds_eye(
@@ -29,16 +231,10 @@ def birds_eye(
 ) -> Path:
     """Trajectories (each an (N, >=2) array of x, y) of every variant over lanes and obstacles."""
     fig, ax = plt.subplots(figsize=(10, 3.6))
-    for lane in lanes:
-        xy = lane.coordinates
-        ax.plot(xy[:, 0], xy[:, 1], color="0.8", lw=1, ls="--", zorder=0)
-        for side in (-0.5, 0.5):
-            edge = lane.parallel(side * lane_width_m).coordinates
-            ax.plot(edge[:, 0], edge[:, 1], color="0.6", lw=0.6, zorder=0)
-    for obstacle in obstacles:
-        ax.add_patch(CirclePatch((obstacle.x_m, obstacle.y_m), obstacle.radius_m, color="k", alpha=0.6, zorder=1))
+    _draw_road(ax, list(lanes), lane_width_m)
+    _draw_obstacles(ax, [(o.x_m, o.y_m, o.radius_m) for o in obstacles])
     for variant, runs in trajectories.items():
-        colour = VARIANT_COLOURS.get(variant)
+        colour = colour_of(variant, list(trajectories))
         for i, states in enumerate(runs):
             ax.plot(states[:, 0], states[:, 1], color=colour, lw=1, alpha=0.8, label=variant if i == 0 else None)
     if x_range_m:  # a window along a straight road: keep the lanes, not the whole road, in view
@@ -53,10 +249,7 @@ def birds_eye(
     ax.set_title(title)
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=130)
 
 
 def time_series(
@@ -68,23 +261,16 @@ def time_series(
     """Speed and lateral offset over time; ``series[variant]`` = [(time_s, speed_mps, lateral_m), ...]."""
     fig, (ax_v, ax_y) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
     for variant, runs in series.items():
-        colour = VARIANT_COLOURS.get(variant)
+        colour = colour_of(variant, list(series))
         for i, (t, v, lateral) in enumerate(runs):
-            label = variant if i == 0 else None
-            ax_v.plot(t, v, color=colour, lw=0.8, alpha=0.8, label=label)
+            ax_v.plot(t, v, color=colour, lw=0.8, alpha=0.8, label=variant if i == 0 else None)
             ax_y.plot(t, lateral, color=colour, lw=0.8, alpha=0.8)
     if v_ref_mps is not None:
         ax_v.axhline(v_ref_mps, color="k", lw=0.6, ls=":")
-    for time_s, label in events_s:
-        for ax in (ax_v, ax_y):
-            ax.axvline(time_s, color="tab:green", lw=0.8, ls="--")
-        ax_v.annotate(label, (time_s, ax_v.get_ylim()[1]), fontsize=7, rotation=90, va="top", ha="right")
+    _mark_events([ax_v, ax_y], events_s)
     ax_v.set_ylabel("speed [m/s]")
     ax_y.set_ylabel("lateral offset [m] (+ left)")
     ax_y.set_xlabel("time [s]")
     ax_v.legend(fontsize=8)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=130)

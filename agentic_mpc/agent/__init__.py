@@ -1,18 +1,25 @@
-"""The agent: message history, backends (rule-based stand-in, OpenAI-compatible LLM), MCP client loop."""
+"""The agent: message history, backends (rule-based stand-in, OpenAI-compatible LLM), MCP client loop.
 
-from agentic_mpc.agent.agent import Agent, AgentConfig, AgentError, StepReport, system_prompt
-from agentic_mpc.agent.messages import Message, MessageHistory, ToolCall
-from agentic_mpc.agent.observations import EmergencyWatch, EmergencyWatchConfig
+Names are imported on first use (the MCP client is a heavy import): ``from agentic_mpc.agent import Agent``.
+"""
 
-__all__ = [
-    "Agent",
-    "AgentConfig",
-    "AgentError",
-    "EmergencyWatch",
-    "EmergencyWatchConfig",
-    "Message",
-    "MessageHistory",
-    "StepReport",
-    "ToolCall",
-    "system_prompt",
-]
+from importlib import import_module
+from typing import Any
+
+_EXPORTS = {
+    "Agent": "agentic_mpc.agent.agent",
+    "AgentConfig": "agentic_mpc.agent.agent",
+    "AgentError": "agentic_mpc.agent.agent",
+    "StepReport": "agentic_mpc.agent.agent",
+    "system_prompt": "agentic_mpc.agent.agent",
+    "Message": "agentic_mpc.agent.messages",
+    "MessageHistory": "agentic_mpc.agent.messages",
+    "ToolCall": "agentic_mpc.agent.messages",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'agentic_mpc.agent' has no attribute {name!r}")
+    return getattr(import_module(_EXPORTS[name]), name)

@@ -7,8 +7,10 @@ the next message. The system message (tau = 0) holds the initially attached prim
 the agent can restore the original specification.
 
 The agent talks to the controller ONLY through the MCP server, with ``mcp.Client``: in-process by default
-(pass the ``MCPServer``), or a server in another process (``StdioServerParameters``) or over HTTP (a URL).
-It runs in its own thread with its own event loop: the control loop never waits for it.
+(pass the ``MCPServer``, or any object with an ``mcp_server`` attribute holding one), or a server in another
+process (``StdioServerParameters``) or over HTTP (a URL). Of the MCP side it imports only the client contract,
+:mod:`agentic_mpc.mcp.protocol`, never the server's implementation. It runs in its own thread with its own
+event loop: the control loop never waits for it.
 
 Timing modes (``AgentConfig.timing``):
 
@@ -20,18 +22,11 @@ Timing modes (``AgentConfig.timing``):
   the simulation reaches t + latency_s, as if the agent had thought for ``latency_s``. With a deterministic
   backend the whole run is deterministic.
 
-Wiring it to a simulation (the plain-Python world does this; the SUMO co-simulation will do the same)::
-
-    slot = SpecificationSlot(initial_specification)
-    tools = ControllerTools(slot, lane_source)            # lane_source() -> RoadLanes(lanes, speed_limit_mps)
-    server = build_server(tools, latest_observation)      # latest_observation() -> Observation.to_json()
-    agent = Agent(RulesBackend(), server, AgentConfig(timing="lockstep", latency_s=1.0)).start()
-    every control step at sim time t:
-        tools.apply_due(t)                                # lockstep changes whose time has come
-        ... controller.step(state, slot.current, surroundings) ...
-        server.publish_observation(observation)           # ResourceUpdated for listening MCP clients
-        agent.observe(observation)                        # observation messages, if enabled
-    a passenger message at sim time t: agent.deliver(text, sim_time_s=t)
+Wiring it to a simulation is the run loop's job (:mod:`agentic_mpc.run.loop`): it builds the tools and the
+MCP server over the world, starts the agent on that server, and each control step applies the due lockstep
+changes, steps the world and publishes the observation to the server; passenger messages and observation
+messages (emergency-vehicle events, :mod:`agentic_mpc.world.emergency`) go to :meth:`Agent.deliver` at their
+sim time.
 
 Bad input never stops the car: empty, oversized or non-text messages are rejected before they become a step;
 unknown tools, unparseable or schema-violating arguments (including NaN) are answered with a tool error
@@ -59,9 +54,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
 from agentic_mpc.agent.messages import Message, MessageHistory, Source, ToolCall
-from agentic_mpc.agent.observations import EmergencyWatch, EmergencyWatchConfig
 from agentic_mpc.agent.transcript import Transcript
-from agentic_mpc.mcp_server import APPLY_AT_META_KEY, AgenticMPCServer, validate_arguments
+from agentic_mpc.mcp.protocol import APPLY_AT_META_KEY, INITIAL_SPECIFICATION_URI, validate_arguments
 
 logger = logging.getLogger(__name__)
 
@@ -84,8 +78,6 @@ class AgentConfig(BaseModel):
     startup_timeout_s: float = Field(60.0, gt=0)
     lockstep_timeout_s: float = Field(600.0, gt=0)
     transcript_path: Path | None = None
-    wake_on_emergency_vehicles: bool = False
-    emergency_watch: EmergencyWatchConfig = EmergencyWatchConfig()
     system_prompt_extra: str = ""
 
 
@@ -177,9 +169,10 @@ def _check_message(text: Any, limit: int) -> str | None:
 class Agent:
     """The agent (see the module docstring). Use as a context manager, or ``start()`` / ``close()``.
 
-    ``server`` is what ``mcp.Client`` connects to: an ``MCPServer`` (or :class:`AgenticMPCServer`) for
-    in-process, ``StdioServerParameters`` for a subprocess, a URL for streamable HTTP. ``sim_clock``, if
-    given, stamps sim time on messages that arrive without one (realtime mode).
+    ``server`` is anything ``mcp.Client`` connects to: an ``MCPServer`` for in-process,
+    ``StdioServerParameters`` for a subprocess, a URL for streamable HTTP; or any object with an
+    ``mcp_server`` attribute (such as :class:`agentic_mpc.mcp.server.AgenticMPCServer`), whose value is used.
+    ``sim_clock``, if given, stamps sim time on messages that arrive without one (realtime mode).
     """
 
     def __init__(
@@ -190,13 +183,12 @@ class Agent:
         sim_clock: Callable[[], float] | None = None,
     ) -> None:
         self.backend = backend
-        self.server = server.server if isinstance(server, AgenticMPCServer) else server
+        self.server = getattr(server, "mcp_server", server)
         self.config = config or AgentConfig()
         self.sim_clock = sim_clock
         self.history = MessageHistory()
         self.transcript = Transcript(self.config.transcript_path)
         self.tools: tuple[ToolSpec, ...] = ()
-        self.watch = EmergencyWatch(self.config.emergency_watch)
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._queue: asyncio.Queue[tuple[Message, Future[StepReport]] | None] | None = None
@@ -292,10 +284,10 @@ class Agent:
             raise AgentError("the MCP server lists no tools")
         initial: dict[str, Any] | None = None
         try:
-            read = await client.read_resource("mpc://specification/initial")
+            read = await client.read_resource(INITIAL_SPECIFICATION_URI)
             initial = json.loads(read.contents[0].text)  # type: ignore[union-attr]
         except Exception as error:  # a server without it still works; the agent just cannot restore
-            logger.warning("could not read mpc://specification/initial: %s", error)
+            logger.warning("could not read %s: %s", INITIAL_SPECIFICATION_URI, error)
         system = self.history.append(
             Message(
                 "system",
@@ -342,16 +334,6 @@ class Agent:
         if self.config.timing == "lockstep":
             future.result(timeout=self.config.lockstep_timeout_s)
         return future
-
-    def observe(self, observation: dict[str, Any]) -> list[Future[StepReport]]:
-        """Feed an observation; wakes the agent with an observation message when the watch says so."""
-        if not self.config.wake_on_emergency_vehicles:
-            return []
-        t = observation.get("time_s")
-        return [
-            self.deliver(text, sim_time_s=float(t) if isinstance(t, int | float) else None, source="observation")
-            for text in self.watch.update(observation)
-        ]
 
     # ------------------------------------------------------------------ one agent step
     def _append(self, message: Message) -> Message:

@@ -1,8 +1,9 @@
 """``agentic-mpc ask "MESSAGE"``: the tool calls the agent makes for one message, without simulating.
 
-The agent starts from the paper's initial specification (path tracking on the center lane at 15 m/s plus
-obstacle avoidance, on a straight 3-lane road with a 25 m/s limit), reads the message and calls the tools
-through the in-process MCP server; the calls the server accepts are printed (``--json``: a JSON list of
+A run that never advances: the scenario's world at its start (default: the paper's Scenario 1 in the
+plain-Python world, ``scenarios/paper_steering_preference_plain.yaml``: path tracking on the center lane at
+15 m/s plus obstacle avoidance, a straight 3-lane left-hand road with a 25 m/s limit), its initial
+specification, tools and MCP server; the agent reads the message and calls the tools through the server; the calls the server accepts are printed (``--json``: a JSON list of
 ``{"tool": name, "arguments": {...}}``). The default backend, ``rules``, is a deterministic rule-based
 stand-in, not a language model; ``--backend openai`` asks a real model behind an OpenAI-compatible endpoint::
 
@@ -21,6 +22,8 @@ import json
 import logging
 import sys
 from pathlib import Path
+
+DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "paper_steering_preference_plain.yaml"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -41,7 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print only the JSON list of tool calls")
     parser.add_argument("--transcript", type=Path, default=None, help="write the agent's transcript (JSONL) here")
     parser.add_argument("--scenario", type=Path, default=None,
-                        help="start from this scenario's initial specification and road (default: the paper's)")
+                        help="start from this scenario's world and initial specification (default: the paper's Scenario 1)")
     parser.add_argument("--variant", default=None, help="with --scenario: the variant")
     parser.set_defaults(handler=run)
 
@@ -60,45 +63,30 @@ def _backend(args: argparse.Namespace):  # -> Backend
 
 
 def run(args: argparse.Namespace) -> int:
-    from agentic_mpc.agent import Agent, AgentConfig
-    from agentic_mpc.mcp_server import build_server
-    from agentic_mpc.plain_world import StraightRoad, paper_initial_specification
-    from agentic_mpc.primitives import Circle, SpecificationSlot
-    from agentic_mpc.tools import ControllerTools
+    from agentic_mpc.agent import AgentConfig
+    from agentic_mpc.run.loop import AgentSetup
+    from agentic_mpc.scenario.runner import build_loop, build_world
+    from agentic_mpc.scenario.schema import load_scenario
+    from agentic_mpc.scenario.yaml_source import ScenarioFileError
+    from agentic_mpc.world.base import WorldError
 
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
-    road = StraightRoad()
-    lanes, speed_limit_mps = road.lanes(), road.speed_limit_mps
-    obstacle = Circle(x_m=45.0, y_m=0.0, radius_m=2.0, label="obstacle0")
-    initial = paper_initial_specification(lanes, v_ref_mps=15.0, obstacles=[obstacle])
-    if args.scenario is not None:
-        from agentic_mpc.scenario.runner import dry_specification
-        from agentic_mpc.scenario.schema import load_scenario
-        from agentic_mpc.scenario.yaml_source import ScenarioFileError
-
-        try:
-            scenario = load_scenario(args.scenario).variant(args.variant)
-        except ScenarioFileError as error:
-            print(error, file=sys.stderr)
-            return 2
-        initial, (lanes, speed_limit_mps), lefthand = dry_specification(scenario)
-        if args.yield_lane is None:
-            args.yield_lane = "left" if lefthand else "right"
-    slot = SpecificationSlot(initial)
-    tools = ControllerTools(slot, lambda: (lanes, speed_limit_mps))
-    observation = {
-        "time_s": 0.0,
-        "ego": {"id": "ego", "x_m": 0.0, "y_m": 0.0, "heading_rad": 0.0, "speed_mps": 15.0, "lane": "center"},
-        "traffic": [],
-        "emergency_vehicles": [],
-        "obstacles": [{"id": obstacle.label, "x_m": obstacle.x_m, "y_m": obstacle.y_m, "radius_m": obstacle.radius_m}],
-        "collisions": [],
-    }
-    server = build_server(tools, lambda: observation)
+    try:
+        scenario = load_scenario(args.scenario or DEFAULT_SCENARIO).variant(args.variant)
+    except ScenarioFileError as error:
+        print(error, file=sys.stderr)
+        return 2
+    try:
+        world = build_world(scenario)  # a run that never advances: the world at its start
+    except WorldError as error:
+        print(f"agentic-mpc ask: the scenario's world could not start: {error}", file=sys.stderr)
+        return 1
+    if args.yield_lane is None:
+        args.yield_lane = "left" if world.lanes().lefthand else "right"
     config = AgentConfig(transcript_path=args.transcript, backend_attempts=2, retry_backoff_s=0.2,
                          backend_timeout_s=args.timeout_s + 5.0)
-    with Agent(_backend(args), server, config) as agent:
-        report = agent.deliver(args.message).result()
+    with build_loop(scenario, world, agent=AgentSetup(_backend(args), config)) as loop:
+        report = loop.agent.deliver(args.message).result()
     calls = report.applied_calls
     if args.json:
         print(json.dumps(calls))

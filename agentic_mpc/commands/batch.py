@@ -66,7 +66,7 @@ def _print_variant_table(summary_path: Path) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from agentic_mpc.scenario.batch import BatchInputError, BatchSpec, default_workers, run_batch
+    from agentic_mpc.batch import BatchInputError, BatchSpec, default_workers, run_batch
 
     try:
         spec = BatchSpec(

@@ -12,7 +12,7 @@ ambulance that comes up behind the ego at ``--ambulance-at-s``.
 
 Transports: ``--transport stdio`` (the default: for Claude Desktop, MCP Inspector and other hosts that
 start the server themselves; nothing but MCP goes to stdout, logs go to stderr) and ``--transport http``
-(streamable HTTP at ``http://HOST:PORT/mcp``). See :mod:`agentic_mpc.mcp_server` for the tools, resources
+(streamable HTTP at ``http://HOST:PORT/mcp``). See :mod:`agentic_mpc.mcp.server` for the tools, resources
 and host configuration, e.g. Claude Desktop::
 
     {"mcpServers": {"agentic-mpc": {"command": "agentic-mpc", "args": ["serve", "--transport", "stdio"]}}}
@@ -31,6 +31,8 @@ import sys
 import threading
 from pathlib import Path
 
+DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "plain_world_traffic.yaml"
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -43,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", nargs="?", type=Path, default=None, metavar="SCENARIO",
-                        help="scenario YAML to run in SUMO (default: the plain-Python world)")
+                        help="scenario YAML to run (default: scenarios/plain_world_traffic.yaml, no SUMO)")
     parser.add_argument("--variant", default=None, help="with SCENARIO: the variant (default: the base scenario)")
     parser.add_argument("--out", type=Path, default=None, help="with SCENARIO: where the run's files go")
     parser.add_argument("--transport", choices=("stdio", "http"), default="stdio")
@@ -53,60 +55,43 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="wall seconds per simulated second (1 = real time, 2 = half speed)")
     parser.add_argument("--duration-s", type=float, default=None, help="stop the simulation after this sim time")
     parser.add_argument("--ambulance-at-s", type=float, default=30.0,
-                        help="sim time an ambulance appears behind the ego (negative: no ambulance)")
-    parser.add_argument("--seed", type=int, default=0, help="controller sampling seed")
+                        help="without SCENARIO: sim time the ambulance appears behind the ego (negative: none)")
+    parser.add_argument("--seed", type=int, default=0, help="the run's seed (default: the scenario's)")
     parser.add_argument("--publish-interval-s", type=float, default=0.2,
                         help="sim seconds between resource-updated notifications for ego and traffic")
     parser.add_argument("--log-level", default="WARNING", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
 
 def run(args: argparse.Namespace) -> int:
-    from agentic_mpc.mcp_server import build_server
-    from agentic_mpc.plain_world import PlainWorld, demo_config
-
     # stdout belongs to the MCP protocol on stdio: everything else goes to stderr.
     logging.basicConfig(level=args.log_level, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
     if args.time_scale <= 0:
         print("error: --time-scale must be positive", file=sys.stderr)
         return 2
-    if args.scenario is not None:
-        return serve_scenario(args)
-    config = demo_config(args.ambulance_at_s if args.ambulance_at_s >= 0 else None)
-    config.seed = args.seed
-    world = PlainWorld(config)
-    server = build_server(world.tools, world.latest_observation, publish_interval_s=args.publish_interval_s)
-    world.on_step.append(server.publish_observation)
-    world.step()  # compile the controller before the first client arrives
-    world.start(duration_s=args.duration_s, realtime=True, time_scale=args.time_scale)
-    logging.getLogger(__name__).info("simulation running; MCP over %s", args.transport)
-    try:
-        _serve(server, args)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        world.stop()
-    return 0
+    return serve_scenario(args)
 
 
 def _serve(server: object, args: argparse.Namespace) -> None:
     if args.transport == "stdio":
-        server.server.run("stdio")  # type: ignore[attr-defined]
+        server.mcp_server.run("stdio")  # type: ignore[attr-defined]
     else:
         print(f"MCP server at http://{args.host}:{args.port}/mcp", file=sys.stderr, flush=True)
-        server.server.run("streamable-http", host=args.host, port=args.port)  # type: ignore[attr-defined]
+        server.mcp_server.run("streamable-http", host=args.host, port=args.port)  # type: ignore[attr-defined]
 
 
 def serve_scenario(args: argparse.Namespace) -> int:
-    """A SUMO scenario in real time behind the MCP server; the host is the agent."""
+    """A scenario in real time behind the MCP server; the host is the agent."""
     from agentic_mpc.scenario.runner import ScenarioRun
     from agentic_mpc.scenario.schema import load_scenario
     from agentic_mpc.scenario.yaml_source import ScenarioFileError
 
     try:
-        scenario = load_scenario(args.scenario).variant(args.variant)
+        scenario = load_scenario(args.scenario or DEFAULT_SCENARIO).variant(args.variant)
     except ScenarioFileError as error:
         print(error, file=sys.stderr)
         return 2
+    if args.scenario is None:
+        scenario = _with_ambulance_at(scenario, args.ambulance_at_s)
     if args.seed:
         scenario = scenario.with_seed(args.seed)
     if args.duration_s is not None:
@@ -129,6 +114,16 @@ def serve_scenario(args: argparse.Namespace) -> int:
         run.stop.set()
         simulation.join(timeout=30)
     return 0
+
+
+def _with_ambulance_at(scenario: object, at_s: float) -> object:
+    """The default scenario with its ambulance appearing at ``at_s`` (negative: without it)."""
+    world = scenario.plain_world  # type: ignore[attr-defined]
+    vehicles = tuple(
+        v.model_copy(update={"appear_at_s": at_s}) if v.emergency else v
+        for v in world.vehicles if not (v.emergency and at_s < 0)
+    )
+    return scenario.model_copy(update={"plain_world": world.model_copy(update={"vehicles": vehicles})})  # type: ignore[attr-defined]
 
 
 def _run_quietly(run: object) -> None:

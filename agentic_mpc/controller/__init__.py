@@ -1,6 +1,20 @@
-"""Fourier MPPI: the model predictive controller (knows the vehicle and the primitives, nothing else)."""
+"""Fourier MPPI: the model predictive controller (knows the vehicle and the primitives, nothing else).
 
-from agentic_mpc.controller.config import MPPIConfig
-from agentic_mpc.controller.mppi import ControlOutput, FourierMPPI
+Names are imported on first use, so that reading a configuration does not compile the kernels.
+"""
 
-__all__ = ["ControlOutput", "FourierMPPI", "MPPIConfig"]
+from importlib import import_module
+from typing import Any
+
+_EXPORTS = {
+    "MPPIConfig": "agentic_mpc.controller.config",
+    "ControlOutput": "agentic_mpc.controller.mppi",
+    "FourierMPPI": "agentic_mpc.controller.mppi",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'agentic_mpc.controller' has no attribute {name!r}")
+    return getattr(import_module(_EXPORTS[name]), name)

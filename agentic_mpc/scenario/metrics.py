@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from agentic_mpc.primitives import Circle
-from agentic_mpc.sumo.observations import Observation
+from agentic_mpc.world.observation import Observation
 
 TIMING_COLUMNS = ("solve_ms", "step_ms", "controller_ms_median", "controller_ms_p99", "wall_s")
 """Wall-clock columns: the only ones a seed cannot fix (every other column is reproducible)."""

@@ -1,7 +1,7 @@
 """The scenario file, as typed and validated objects.
 
-A scenario is one YAML file (see ``scenarios/`` and the README): the co-simulation (network, routes,
-traffic, ego, obstacles, controller), the initially attached primitives, the agent, a timeline of user
+A scenario is one YAML file (see ``scenarios/`` and the README): the world (``simulation``: SUMO's network,
+routes, traffic, ego and obstacles; or ``plain_world``), the controller, the initially attached primitives, the agent, a timeline of user
 messages, the duration and seed, and named variants that override any of these. :func:`load_scenario`
 validates the base and every variant before anything runs and reports every problem with its file, line
 and YAML path.
@@ -14,9 +14,10 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from agentic_mpc.primitives import Mandatory, PreferredSteeringDirection
 from agentic_mpc.scenario.yaml_source import ScenarioFileError, YamlDocument, YamlPath, deep_merge, load_yaml
-from agentic_mpc.sumo.cosimulation import CoSimConfig, LaneRef
+from agentic_mpc.controller.config import MPPIConfig
+from agentic_mpc.sumo.config import LaneRef, SumoConfig
+from agentic_mpc.world.plain_config import PlainConfig
 
 class _Strict(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
@@ -51,9 +52,13 @@ class SpecificationSettings(_Strict):
 
     @model_validator(mode="after")
     def _validate_with_the_primitives(self) -> SpecificationSettings:
-        Mandatory.model_validate(self.mandatory)
-        if self.preferred_steering_direction is not None:
-            PreferredSteeringDirection.model_validate(self.preferred_steering_direction)
+        if self.mandatory or self.preferred_steering_direction is not None:
+            # imported only when there is something to check: the primitives load numpy and the kernels
+            from agentic_mpc.primitives import Mandatory, PreferredSteeringDirection
+
+            Mandatory.model_validate(self.mandatory)
+            if self.preferred_steering_direction is not None:
+                PreferredSteeringDirection.model_validate(self.preferred_steering_direction)
         return self
 
 
@@ -102,7 +107,9 @@ class Scenario(_Strict):
 
     name: str = Field(..., min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
     description: str = ""
-    simulation: CoSimConfig
+    simulation: SumoConfig | None = Field(None, description="the SUMO world (network, traffic, ego, obstacles)")
+    plain_world: PlainConfig | None = Field(None, description="or a plain-Python world without SUMO")
+    controller: MPPIConfig = MPPIConfig()
     specification: SpecificationSettings
     agent: AgentSettings = AgentSettings()
     messages: tuple[Message, ...] = ()
@@ -111,6 +118,12 @@ class Scenario(_Strict):
     seed: int = Field(0, ge=0)
     outputs: OutputSettings = OutputSettings()
     variant: str = Field("base", description="set by the loader")
+
+    @model_validator(mode="after")
+    def _one_world(self) -> Scenario:
+        if (self.simulation is None) == (self.plain_world is None):
+            raise ValueError("give exactly one world: simulation (SUMO) or plain_world")
+        return self
 
     @model_validator(mode="after")
     def _messages_inside_the_run(self) -> Scenario:
@@ -180,8 +193,10 @@ def _validate(document: YamlDocument, data: dict[str, Any], prefix: YamlPath, pr
     try:
         return Scenario.model_validate(data)
     except ValidationError as error:
-        # pydantic skips model checks when a field fails: run the timeline check here so every problem shows
+        # pydantic skips model checks when a field fails: run the whole-file checks here so every problem shows
         problems.extend(_messages_past_the_end(document, data, prefix))
+        if ("simulation" in data) == ("plain_world" in data):
+            problems.append(f"{document.locate(prefix)}: give exactly one world: simulation (SUMO) or plain_world")
         for item in error.errors():
             location = tuple(item["loc"])
             # an override's own line if the variant set this value, else the base file's line

@@ -60,7 +60,12 @@ def load_yaml(file: Path | str) -> YamlDocument:
         text = file.read_text(encoding="utf-8")
     except OSError as error:
         raise ScenarioFileError(file, [f"{file}: cannot read: {error.strerror or error}"]) from error
-    loader = yaml.SafeLoader(text)
+    except UnicodeDecodeError as error:
+        raise ScenarioFileError(file, [f"{file}: not a text file (byte {error.start} is not UTF-8)"]) from error
+    try:
+        loader = yaml.SafeLoader(text)
+    except yaml.reader.ReaderError as error:  # control characters: a binary file
+        raise ScenarioFileError(file, [f"{file}: not a YAML text file: {error}"]) from error
     try:
         root = loader.get_single_node()
     except yaml.YAMLError as error:

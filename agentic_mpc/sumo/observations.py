@@ -1,207 +1,26 @@
-"""What the ego perceives at one step: a typed, frozen snapshot built from the bridge's records.
+"""Turns the SUMO bridge's raw records into the world's :class:`~agentic_mpc.world.observation.Observation`.
 
-Coordinates are the network's (metres), positions are vehicle CENTRES, headings are radians from +x
-counter-clockwise (the bridge has converted SUMO's front bumper and navigational angle). Along-road
-quantities are measured on the road's centre line (:attr:`Road.reference`):
-
-- ``offset_m``: centre-to-centre distance along the road, positive when the other vehicle is ahead;
-- ``gap_m``: bumper-to-bumper clearance along the road (``|offset| - (length + ego length) / 2``);
-  negative when the two overlap lengthwise, i.e. drive alongside;
-- ``relation``: "ahead", "behind" or "alongside" (lengthwise overlap);
-- ``relative_lane``: lanes to the left of the ego's lane (+1 = one lane left, -1 = one lane right);
-- ``closing_speed_mps``: how fast the gap shrinks (positive = approaching).
-
-``Observation.to_json()`` is the stable, JSON-ready form other components (MCP resources) build on: a dict
-with exactly the keys ``time_s``, ``ego``, ``traffic``, ``emergency_vehicles``, ``obstacles``, ``collisions``.
+Positions arrive converted by the bridge (centres, radians from +x); this adds the along-road view relative
+to the ego (see the observation module for the quantities) and our own footprint-overlap collision check.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass
-from typing import Any, Literal
 
 from agentic_mpc.sumo.bridge import CollisionRecord, VehicleInfo, VehicleState
 from agentic_mpc.sumo.network import Road
-
-Relation = Literal["ahead", "behind", "alongside"]
-
-JSON_KEYS = ("time_s", "ego", "traffic", "emergency_vehicles", "obstacles", "collisions")
-
-
-def _rounded(record: Any, digits: int = 3) -> dict[str, Any]:
-    out = {}
-    for key, value in asdict(record).items():
-        if isinstance(value, float):
-            value = round(value, digits) if math.isfinite(value) else None
-        out[key] = value
-    return out
-
-
-@dataclass(frozen=True, slots=True)
-class EgoObservation:
-    """The ego as SUMO reports it (position converted to the centre)."""
-
-    id: str
-    x_m: float
-    y_m: float
-    heading_rad: float
-    speed_mps: float
-    """SUMO's speed: the distance the ego was moved in the last step divided by the step length."""
-    lane_id: str
-    """'' when the ego is off every lane (then SUMO traffic ignores it)."""
-    lane_index: int
-    lane_role: str
-    """"left"/"center"/"right" (or "lane<i>"; "" off the road)."""
-    edge_id: str
-    road_s_m: float
-    lateral_offset_m: float
-    """Signed distance of the centre from the centre line of ``lane_id`` (positive to the left); off the
-    road, from the road's centre line."""
-    length_m: float
-    width_m: float
-
-    def to_json(self) -> dict[str, Any]:
-        return _rounded(self)
-
-
-@dataclass(frozen=True, slots=True)
-class VehicleObservation:
-    """Another road user near the ego."""
-
-    id: str
-    type_id: str
-    vclass: str
-    x_m: float
-    y_m: float
-    heading_rad: float
-    speed_mps: float
-    vx_mps: float
-    vy_mps: float
-    lane_id: str
-    lane_index: int
-    lane_role: str
-    edge_id: str
-    length_m: float
-    width_m: float
-    road_s_m: float
-    offset_m: float
-    gap_m: float
-    relation: Relation
-    relative_lane: int | None
-    """None when the vehicle is not on a lane of the ego's road."""
-    lane_s_m: float | None
-    """Arc length of its centre on its lane's path through the road (None off the road): for prediction."""
-    lateral_offset_m: float
-
-    def to_json(self) -> dict[str, Any]:
-        return _rounded(self)
-
-
-@dataclass(frozen=True, slots=True)
-class EmergencyVehicleObservation:
-    """An emergency-class vehicle (an ambulance) anywhere in the simulation, relative to the ego."""
-
-    vehicle: VehicleObservation
-    relation: Relation
-    distance_m: float
-    """Bumper-to-bumper distance along the road (behind: its front to the ego's rear); 0 when alongside."""
-    closing_speed_mps: float
-    """How fast ``distance_m`` shrinks (positive = it is catching up / we are catching up)."""
-    time_to_reach_s: float | None
-    """distance / closing speed when closing, else None."""
-    same_lane: bool
-
-    def to_json(self) -> dict[str, Any]:
-        data = self.vehicle.to_json()
-        data.update(
-            relation=self.relation,
-            distance_m=round(self.distance_m, 3),
-            closing_speed_mps=round(self.closing_speed_mps, 3),
-            time_to_reach_s=None if self.time_to_reach_s is None else round(self.time_to_reach_s, 3),
-            same_lane=self.same_lane,
-        )
-        return data
-
-
-@dataclass(frozen=True, slots=True)
-class ObstacleObservation:
-    """A static obstacle (a stopped vehicle SUMO traffic must drive around)."""
-
-    id: str
-    type_id: str
-    x_m: float
-    y_m: float
-    heading_rad: float
-    length_m: float
-    width_m: float
-    lane_id: str
-    lane_index: int
-    lane_role: str
-    road_s_m: float
-    offset_m: float
-    gap_m: float
-    relation: Relation
-    relative_lane: int | None
-
-    def to_json(self) -> dict[str, Any]:
-        return _rounded(self)
-
-
-@dataclass(frozen=True, slots=True)
-class CollisionObservation:
-    """A collision in the last step: as SUMO reported it, or an overlap of the ego's box we found ourselves.
-
-    Without the sublane model SUMO only checks vehicles on the same lane, so a sideways overlap with a
-    half-changed ego goes unreported there; ``source="geometry"`` records catch those.
-    """
-
-    collider: str
-    victim: str
-    collider_type: str
-    victim_type: str
-    collider_speed_mps: float
-    victim_speed_mps: float
-    kind: str
-    lane_id: str
-    pos_m: float
-    involves_ego: bool
-    source: Literal["sumo", "geometry"]
-
-    def to_json(self) -> dict[str, Any]:
-        return _rounded(self)
-
-
-@dataclass(frozen=True, slots=True)
-class Observation:
-    """One step's snapshot of the co-simulation, from the ego's point of view."""
-
-    time_s: float
-    ego: EgoObservation
-    traffic: tuple[VehicleObservation, ...]
-    """Vehicles within sensing range (obstacles excluded; an emergency vehicle in range is here too)."""
-    emergency_vehicles: tuple[EmergencyVehicleObservation, ...]
-    obstacles: tuple[ObstacleObservation, ...]
-    collisions: tuple[CollisionObservation, ...]
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict with exactly the keys of :data:`JSON_KEYS`."""
-        return {
-            "time_s": round(self.time_s, 3),
-            "ego": self.ego.to_json(),
-            "traffic": [v.to_json() for v in self.traffic],
-            "emergency_vehicles": [e.to_json() for e in self.emergency_vehicles],
-            "obstacles": [o.to_json() for o in self.obstacles],
-            "collisions": [c.to_json() for c in self.collisions],
-        }
-
-    def vehicle(self, vehicle_id: str) -> VehicleObservation | None:
-        return next((v for v in self.traffic if v.id == vehicle_id), None)
-
-    @property
-    def ego_collided(self) -> bool:
-        return any(c.involves_ego for c in self.collisions)
+from agentic_mpc.world.observation import (
+    CollisionObservation,
+    EgoObservation,
+    EmergencyVehicleObservation,
+    Observation,
+    ObstacleObservation,
+    Relation,
+    VehicleObservation,
+    boxes_overlap,
+)
 
 
 class ObservationBuilder:
@@ -393,7 +212,7 @@ class ObservationBuilder:
         for other in (*traffic, *obstacles.values()):
             if frozenset((self.ego_id, other.id)) in reported:
                 continue
-            if _boxes_overlap(ego_obs, other):
+            if boxes_overlap(ego_obs, other):
                 speed = getattr(other, "speed_mps", 0.0)
                 collision_obs.append(
                     CollisionObservation(
@@ -404,26 +223,3 @@ class ObservationBuilder:
         return Observation(
             time_s, ego_obs, tuple(traffic), tuple(emergency_obs), tuple(obstacles.values()), tuple(collision_obs)
         )
-
-
-def _corners(x: float, y: float, heading: float, length: float, width: float) -> list[tuple[float, float]]:
-    c, s = math.cos(heading), math.sin(heading)
-    hl, hw = 0.5 * length, 0.5 * width
-    return [(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (hl, -hw), (-hl, -hw), (-hl, hw))]
-
-
-def _boxes_overlap(a: Any, b: Any) -> bool:
-    """Separating-axis test of two oriented rectangles (x_m, y_m, heading_rad, length_m, width_m)."""
-    reach = 0.5 * (math.hypot(a.length_m, a.width_m) + math.hypot(b.length_m, b.width_m))
-    if (a.x_m - b.x_m) ** 2 + (a.y_m - b.y_m) ** 2 > reach * reach:
-        return False
-    ca = _corners(a.x_m, a.y_m, a.heading_rad, a.length_m, a.width_m)
-    cb = _corners(b.x_m, b.y_m, b.heading_rad, b.length_m, b.width_m)
-    for heading in (a.heading_rad, b.heading_rad):
-        c, s = math.cos(heading), math.sin(heading)
-        for ax, ay in ((c, s), (-s, c)):
-            pa = [x * ax + y * ay for x, y in ca]
-            pb = [x * ax + y * ay for x, y in cb]
-            if max(pa) < min(pb) or max(pb) < min(pa):
-                return False
-    return True

@@ -1,8 +1,8 @@
 """Ready-made co-simulation configs for the paper's scenarios and the traffic experiments.
 
 The nets and route files live in the repository's ``sumo_nets/`` folder (``AGENTIC_MPC_SUMO_NETS``
-overrides where). Every function returns a plain :class:`CoSimConfig`; change it with
-``config.replace(...)`` (validated).
+overrides where). Every function returns a plain :class:`~agentic_mpc.sumo.config.SumoConfig`; change it
+with ``config.replace(...)`` (validated). The seed is the run's: give it to the world and the loop.
 """
 
 from __future__ import annotations
@@ -12,8 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agentic_mpc.sumo.cosimulation import CoSimConfig, EgoStart, StaticObstacle, VehicleSpawn
-from agentic_mpc.sumo.surroundings import SurroundingsConfig
+from agentic_mpc.sumo.config import EgoStart, StaticObstacle, SumoConfig, SurroundingsConfig, VehicleSpawn
 
 
 def nets_dir() -> Path:
@@ -29,18 +28,16 @@ def net_files(name: str, lefthand: bool = False) -> tuple[Path, Path]:
     return net, directory / f"{name}.rou.xml"
 
 
-def scenario1_config(obstacle_pos_m: float = 110.0, seed: int = 0, **update: object) -> CoSimConfig:
+def scenario1_config(obstacle_pos_m: float = 110.0, **update: object) -> SumoConfig:
     """Scenario 1 (steering preference): the ego at 15 m/s on the centre lane of the straight road, a stopped
     car on that lane ``obstacle_pos_m`` ahead of the road start (J2 sees it; SUMO traffic would too)."""
     net, routes = net_files("straight")
-    config = CoSimConfig(
+    config = SumoConfig(
         net_file=net,
         route_files=(routes,),
         road="straight",
-        seed=seed,
         ego=EgoStart(lane="center", pos_m=30.0, speed_mps=15.0),
         obstacles=(StaticObstacle(id="obstacle", lane="center", pos_m=obstacle_pos_m),),
-        v_ref_mps=15.0,
     )
     return config.replace(**update)
 
@@ -49,9 +46,8 @@ def scenario2_config(
     lefthand: bool = True,
     roadblock: bool = True,
     ambulance_behind_m: float = 90.0,
-    seed: int = 0,
     **update: object,
-) -> CoSimConfig:
+) -> SumoConfig:
     """Scenario 2 (emergency response): the ego at 15 m/s on the centre lane, an ambulance coming from behind
     on the same lane at 20 m/s (it wants 25 m/s).
 
@@ -73,20 +69,18 @@ def scenario2_config(
                 VehicleSpawn(id=f"block_{side}", type_id="car", lane=side, pos_m=ego_pos, speed_mps=15.0,
                              max_speed_mps=15.0, speed_factor=1.0, imperfection=0.0, lane_changes=False)
             )
-    config = CoSimConfig(
+    config = SumoConfig(
         net_file=net,
         route_files=(routes,),
         road="emergency",
-        seed=seed,
         ego=EgoStart(lane="center", pos_m=ego_pos, speed_mps=15.0),
         vehicles=tuple(vehicles),
-        v_ref_mps=15.0,
     )
     return config.replace(**update)
 
 
-def curvy_traffic_config(seed: int = 0, lane: str | int = "center", warmup_s: float = 90.0, lefthand: bool = False,
-                         **update: object) -> CoSimConfig:
+def curvy_traffic_config(lane: str | int = "center", warmup_s: float = 90.0, lefthand: bool = False,
+                         **update: object) -> SumoConfig:
     """The ego drives one lane of the 1.6 km curved 3-lane road through the route file's background traffic
     (about 1800 veh/h; ``warmup_s`` of SUMO alone fills the road first).
 
@@ -96,14 +90,12 @@ def curvy_traffic_config(seed: int = 0, lane: str | int = "center", warmup_s: fl
     overtook through the neighbouring lane in 8 of 30 runs (measured).
     """
     net, routes = net_files("curvy", lefthand)
-    config = CoSimConfig(
+    config = SumoConfig(
         net_file=net,
         route_files=(routes,),
         road="curvy",
-        seed=seed,
         warmup_s=warmup_s,
         ego=EgoStart(lane=lane, pos_m=30.0, speed_mps=15.0),
-        v_ref_mps=15.0,
         surroundings=SurroundingsConfig(edges="corridor"),
     )
     return config.replace(**update)

@@ -35,40 +35,11 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
 from agentic_mpc.primitives import Circle, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.network import Road
-from agentic_mpc.sumo.observations import Observation, ObstacleObservation, VehicleObservation
-
-
-class SurroundingsConfig(BaseModel):
-    """How the observation becomes the controller's surroundings."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-    clearance_margin_m: float = Field(
-        0.5, ge=0, description="disc radius = (W + W_ego)/2 + margin; also how far the cover overshoots at corners"
-    )
-    max_discs_per_vehicle: int = Field(8, ge=1, le=16)
-    lane_entry_margin_m: float | None = Field(
-        0.4, ge=0, description="cover at least half the lane width + this sideways (None: physical size only)"
-    )
-    range_ahead_m: float = Field(80.0, gt=0, description="vehicles further ahead (along the road) are left out")
-    range_behind_m: float = Field(40.0, ge=0, description="vehicles further behind are left out")
-    longitudinal_slack_m: float = Field(
-        12.0, ge=0, description="a vehicle is relevant if it comes this close (beyond its cover) within the horizon"
-    )
-    ignore_followers_in_lane: bool = Field(True, description="leave out vehicles right behind in the ego's lane")
-    leader_time_headway_s: float = Field(
-        1.0, ge=0, description="the cover of a vehicle ahead in the ego's lane reaches back this headway"
-    )
-    leader_standstill_gap_m: float = Field(2.0, ge=0, description="... plus this gap (the ego keeps its distance)")
-    edges: Literal["road", "corridor", "none"] = Field(
-        "road",
-        description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"
-        " (those its box overlaps + the lane J1 tracks); or none",
-    )
+from agentic_mpc.world.observation import Observation, ObstacleObservation, VehicleObservation
 
 
 @dataclass(frozen=True, slots=True)

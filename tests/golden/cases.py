@@ -46,7 +46,7 @@ def shortened_scenarios(workdir: Path) -> list[Path]:
     files = []
     for source in sorted((REPO / "scenarios").glob("*.yaml")):
         data = yaml.safe_load(source.read_text(encoding="utf-8"))
-        if data.get("world", "sumo") != "sumo":
+        if "simulation" not in data:
             continue  # worlds without SUMO are pinned by their own tests
         duration = DURATION_S.get(data["name"])
         if duration is not None:
@@ -72,7 +72,7 @@ def comparable(path: Path) -> str:
 
 def run_all(workdir: Path) -> Path:
     """Run every golden case with the batch (a process per run); returns the batch's ``runs`` directory."""
-    from agentic_mpc.scenario.batch import BatchSpec, run_batch
+    from agentic_mpc.batch import BatchSpec, run_batch
 
     spec = BatchSpec(files=tuple(shortened_scenarios(workdir)), trials=len(SEEDS), first_seed=SEEDS[0],
                      variants=None, workers=2, out_dir=workdir / "out", executor="process", scheduler=None)

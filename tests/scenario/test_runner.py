@@ -56,23 +56,23 @@ def test_same_seed_same_csv_in_lockstep(tmp_path):
 
 def test_a_failure_mid_run_keeps_what_was_recorded(tmp_path):
     scenario = short("no_message", 3)
-    from agentic_mpc.sumo.cosimulation import CoSimulation
+    from agentic_mpc.sumo.world import SumoWorld
 
-    original = CoSimulation.step
+    original = SumoWorld.advance
     calls = {"n": 0}
 
-    def failing_step(self):
+    def failing_advance(self, *inputs):
         calls["n"] += 1
         if calls["n"] == 40:
             self.bridge.remove_vehicle(self.config.ego_id)  # SUMO loses the ego: the next command fails for real
-        return original(self)
+        return original(self, *inputs)
 
-    CoSimulation.step = failing_step
+    SumoWorld.advance = failing_advance
     try:
         with pytest.raises(Exception, match="ego"):
             run_scenario(scenario, tmp_path)
     finally:
-        CoSimulation.step = original
+        SumoWorld.advance = original
     trajectory = pd.read_csv(tmp_path / "trajectory.csv")
     summary = pd.read_csv(tmp_path / "summary.csv").iloc[0]
     assert 35 <= len(trajectory) <= 40

@@ -19,6 +19,9 @@ def test_shipped_scenarios_validate(path):
     scenario_file = load_scenario(path)
     for name in scenario_file.variant_names:
         scenario = scenario_file.variant(name)
+        if scenario.simulation is None:
+            assert scenario.plain_world is not None
+            continue
         assert scenario.simulation.net_file.is_file()
         assert all(route.is_file() for route in scenario.simulation.route_files)
 
@@ -107,4 +110,27 @@ def test_check_command_exit_codes(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("name: x\n")
     result = subprocess.run([sys.executable, "-m", "agentic_mpc", "check", str(bad)], capture_output=True, text=True)
-    assert result.returncode == 2 and "simulation: Field required" in result.stderr
+    assert result.returncode == 2 and "give exactly one world: simulation (SUMO) or plain_world" in result.stderr
+    binary = tmp_path / "binary.yaml"
+    binary.write_bytes(b"name: x\n\x00\x01\x02 garbage\n")
+    result = subprocess.run([sys.executable, "-m", "agentic_mpc", "check", str(binary)], capture_output=True, text=True)
+    assert result.returncode == 2 and f"{binary}: not a YAML text file" in result.stderr
+    assert "Traceback" not in result.stderr
+    binary.write_bytes(bytes(range(128, 256)))
+    result = subprocess.run([sys.executable, "-m", "agentic_mpc", "check", str(binary)], capture_output=True, text=True)
+    assert result.returncode == 2 and f"{binary}: not a text file" in result.stderr
+
+
+def test_each_thing_is_said_once(tmp_path):
+    """One v_ref (the specification's), one seed (the run's): the world's config takes neither."""
+    path = write_variant_of(tmp_path, {"  ego: {lane: center": "  v_ref_mps: 15.0\n  seed: 3\n  ego: {lane: center"})
+    report = problems_of(path)
+    assert "simulation.v_ref_mps: Extra inputs are not permitted" in report
+    assert "simulation.seed: Extra inputs are not permitted" in report
+
+
+def test_reading_a_scenario_loads_no_simulator_and_no_controller():
+    code = ("import sys, agentic_mpc.scenario.schema as s; s.load_scenario(sys.argv[1]); "
+            "print(sorted(m for m in ('libsumo', 'sumolib', 'numba', 'mcp', 'pandas', 'numpy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code, str(SCENARIOS[0])], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

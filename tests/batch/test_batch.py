@@ -1,4 +1,4 @@
-"""The batch runner: real run processes (``tests/scenario/batch_runners.py``), real files, real signals."""
+"""The batch runner: real run processes (``tests/batch/batch_runners.py``), real files, real signals."""
 
 from __future__ import annotations
 
@@ -14,13 +14,13 @@ from pathlib import Path
 
 import pytest
 
-from agentic_mpc.scenario.batch import BatchInputError, BatchSpec, ProgressBar, run_batch
 from agentic_mpc import cli
-from tests.scenario.batch_runners import GATE_ENV, RUN_LOG_ENV, faulty_run, obstacle_run, quick_run, ran
+from agentic_mpc.batch import BatchInputError, BatchSpec, ProgressBar, run_batch
+from tests.batch.batch_runners import GATE_ENV, RUN_LOG_ENV, faulty_run, obstacle_run, quick_run, ran
 
 REPO = Path(__file__).resolve().parents[2]
 NETS = REPO / "sumo_nets"
-RUNNERS = "tests.scenario.batch_runners"
+RUNNERS = "tests.batch.batch_runners"
 
 
 def scenario_yaml(directory: Path, name: str, variants: tuple[str, ...] = (), duration_s: float = 4.0,
@@ -353,9 +353,9 @@ def test_dask_and_local_processes_give_the_same_simulation_result(tmp_path, dask
 
 def test_unreachable_dask_scheduler_is_bad_input(tmp_path, monkeypatch):
     pytest.importorskip("distributed")
-    from agentic_mpc.scenario import batch
+    from agentic_mpc.batch import executors
 
-    monkeypatch.setattr(batch, "DASK_CONNECT_TIMEOUT_S", 1.0)  # the default waits 10 s for a slow cluster
+    monkeypatch.setattr(executors, "DASK_CONNECT_TIMEOUT_S", 1.0)  # the default waits 10 s for a slow cluster
     spec = BatchSpec(files=(scenario_yaml(tmp_path, "plain"),), trials=1, out_dir=tmp_path / "out",
                      executor="dask", scheduler="tcp://127.0.0.1:9")
     with pytest.raises(BatchInputError, match="cannot reach the Dask scheduler"):

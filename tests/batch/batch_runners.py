@@ -32,23 +32,31 @@ def ran(log: Path) -> list[tuple[str, int]]:
     return [(variant, int(seed)) for variant, seed in (line.split() for line in log.read_text().splitlines())]
 
 
+PLAIN_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "paper_steering_preference_plain.yaml"
+
+
 def obstacle_run(scenario_file: Path, variant: str, seed: int, out_dir: Path) -> dict[str, Any]:
     """Scenario 1 without traffic for ``duration_s`` of the file; variant names are the demo's variants."""
     _log_start(variant, seed)
     import pandas as pd
 
-    from agentic_mpc.obstacle_demo import VARIANTS, ObstacleScene, analyse_pass, run_obstacle_variant
+    import numpy as np
+
+    from agentic_mpc.scenario.passing import analyse_pass
+    from agentic_mpc.scenario.runner import drive
     from agentic_mpc.scenario.schema import load_scenario
 
     started = time.perf_counter()
     scenario = load_scenario(scenario_file).variant(variant)
-    scene = ObstacleScene(duration_s=scenario.duration_s)
-    trajectory = run_obstacle_variant(variant if variant in VARIANTS else "no_message", seed, scene)
-    result = analyse_pass(trajectory, scene)
-    states = trajectory.state_array
-    pd.DataFrame(states, columns=["x_m", "y_m", "phi_rad", "v_mps"]).assign(time_s=trajectory.time_s).to_csv(
-        out_dir / "trajectory.csv", index=False
-    )
+    plain = load_scenario(PLAIN_SCENARIO)
+    name = variant if variant in plain.variant_names else "no_message"
+    loop = drive(plain.variant(name).with_seed(seed).model_copy(update={"duration_s": scenario.duration_s}))
+    rows = pd.DataFrame(loop.recorder.trajectory_rows)
+    states = np.vstack([rows[["x_m", "y_m", "phi_rad", "v_mps"]].to_numpy(), loop.world.ego_state])
+    result = analyse_pass(states, loop.world.dt_s, loop.world.obstacle_circles()[0], loop.world.lanes().lanes["center"],
+                          15.0)
+    pd.DataFrame(states, columns=["x_m", "y_m", "phi_rad", "v_mps"]).assign(
+        time_s=np.arange(len(states)) * loop.world.dt_s).to_csv(out_dir / "trajectory.csv", index=False)
     row = {
         "scenario": scenario.name, "variant": variant, "seed": seed, "status": "ok",
         "obstacle_side": result.side, "min_clearance_m": result.min_clearance_m,

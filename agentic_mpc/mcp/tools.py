@@ -10,9 +10,10 @@ snapshot per step, so it never sees half a change). Each returns what is attache
 - ``set_preferred_steering_direction(direction)`` / ``clear_preferred_steering_direction()``: attach or
   detach J3.
 
-The lanes come from a *lane source*, a callable returning :class:`RoadLanes`: the ego road's lane paths by
-label ("center", "left", "right"; a road may have fewer) and its speed limit. The plain-Python world and the
-SUMO co-simulation each provide one, so the tools know nothing of either.
+The lanes come from a *lane source*, a callable returning :class:`~agentic_mpc.world.lanes.RoadLanes` (or a
+plain ``(lanes, speed_limit_mps)`` tuple): the ego road's lane paths by label ("center", "left", "right"; a
+road may have fewer) and its speed limit. Whoever wires the tools to a world passes one that reads that
+world's road, so the tools know nothing of any world.
 
 Timing: a tool applies its change at once, unless it is given ``apply_at_s`` (sim time). Then the change is
 validated now, queued, and applied by :meth:`ControllerTools.apply_due`, which the simulation loop calls at
@@ -29,7 +30,7 @@ import math
 import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Literal, NamedTuple
+from typing import Any, Literal
 
 from pydantic import ValidationError
 
@@ -41,6 +42,7 @@ from agentic_mpc.primitives import (
     SpecificationError,
     SpecificationSlot,
 )
+from agentic_mpc.world.lanes import RoadLanes
 
 logger = logging.getLogger(__name__)
 
@@ -50,15 +52,6 @@ Direction = Literal["left", "right"]
 
 PATH_TRACKING = PathTracking.kind
 STEERING_PREFERENCE = PreferredSteeringDirection.kind
-
-
-class RoadLanes(NamedTuple):
-    """The ego road as the tools see it. A plain ``(lanes, speed_limit_mps)`` tuple works too."""
-
-    lanes: Mapping[str, LanePath]
-    """Lane centre lines by label: "center", "left", "right" (a road may have fewer)."""
-    speed_limit_mps: float
-
 
 LaneSource = Callable[[], RoadLanes | tuple[Mapping[str, LanePath], float]]
 SpecificationChange = Callable[[Specification], Specification]

@@ -20,6 +20,9 @@ most every ``publish_interval_s`` of sim time) and whenever the specification ch
 Scheduling: a ``tools/call`` whose ``_meta`` carries ``"agentic-mpc/apply_at_s": t`` is validated now and
 applied when the simulation reaches sim time t (the agent's lockstep mode). Without it a call applies at once.
 
+The URIs, the ``_meta`` key and the argument check are the client-side contract, in
+:mod:`agentic_mpc.mcp.protocol`; a client imports that, never this module.
+
 Connecting an MCP host
 ----------------------
 Claude Desktop (``claude_desktop_config.json``)::
@@ -58,7 +61,6 @@ from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
 import anyio.lowlevel
-import jsonschema
 from mcp.server.mcpserver import Context, MCPServer
 from mcp.server.mcpserver.exceptions import ResourceNotFoundError, ToolError
 from mcp.server.mcpserver.tools import Tool
@@ -66,17 +68,23 @@ from mcp.server.subscriptions import ResourceUpdated, ServerEvent
 from mcp_types import CallToolResult, TextContent
 from pydantic import Field
 
+from agentic_mpc.mcp.protocol import (
+    APPLY_AT_META_KEY,
+    EGO_URI,
+    EMERGENCY_VEHICLES_URI,
+    INITIAL_SPECIFICATION_URI,
+    OBSTACLES_URI,
+    POOL_URI,
+    SPECIFICATION_URI,
+    TRAFFIC_URI,
+    VEHICLE_URI_TEMPLATE,
+    validate_arguments,
+)
+from agentic_mpc.mcp.tools import ControllerTools, ToolCallError
 from agentic_mpc.primitives import Specification
 from agentic_mpc.primitives.pool import describe_pool
-from agentic_mpc.tools import ControllerTools, ToolCallError
 
 logger = logging.getLogger(__name__)
-
-APPLY_AT_META_KEY = "agentic-mpc/apply_at_s"
-"""Request ``_meta`` key: apply the tool call's change at this sim time (lockstep)."""
-
-OBSERVATION_URIS = ("sumo://ego", "sumo://traffic", "sumo://emergency-vehicles", "sumo://obstacles")
-SPECIFICATION_URI = "mpc://specification"
 
 ObservationSource = Callable[[], dict[str, Any]]
 
@@ -142,32 +150,6 @@ def _deliver(listener: Callable[[ServerEvent], None], event: ServerEvent) -> Non
         logger.exception("a subscription listener raised")
 
 
-def _non_finite(value: Any, path: str = "") -> str | None:
-    if isinstance(value, float) and not math.isfinite(value):
-        return path or "(value)"
-    if isinstance(value, dict):
-        for key, item in value.items():
-            if (found := _non_finite(item, f"{path}.{key}" if path else str(key))) is not None:
-                return found
-    if isinstance(value, list):
-        for index, item in enumerate(value):
-            if (found := _non_finite(item, f"{path}[{index}]")) is not None:
-                return found
-    return None
-
-
-def validate_arguments(tool_name: str, schema: dict[str, Any], arguments: Any) -> None:
-    """Raise ``ValueError`` with a readable message if ``arguments`` break ``schema`` or are not finite."""
-    if not isinstance(arguments, dict):
-        raise ValueError(f"arguments of {tool_name} must be a JSON object, got {type(arguments).__name__}")
-    if (where := _non_finite(arguments)) is not None:
-        raise ValueError(f"invalid arguments for {tool_name}: {where} is not a finite number")
-    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(arguments), key=lambda e: list(e.path))
-    if errors:
-        details = "; ".join(f"{'.'.join(map(str, e.path)) or 'arguments'}: {e.message}" for e in errors)
-        raise ValueError(f"invalid arguments for {tool_name}: {details}")
-
-
 class ControlServer(MCPServer):
     """``MCPServer`` that validates every call against the tool's published schema before running it.
 
@@ -193,8 +175,9 @@ class ControlServer(MCPServer):
 class AgenticMPCServer:
     """The MCP server over one :class:`ControllerTools` and one observation source.
 
-    ``server`` is the ``MCPServer`` (hand it to ``mcp.Client`` or run it); call :meth:`publish_observation`
-    after every simulation step (any thread) to notify listening clients.
+    :attr:`mcp_server` (also ``server``) is the SDK's ``MCPServer``: hand it to ``mcp.Client`` or run it (the
+    agent accepts this object itself and connects to that attribute). Call :meth:`publish_observation` after
+    every simulation step (any thread) to notify listening clients.
     """
 
     def __init__(
@@ -225,13 +208,18 @@ class AgenticMPCServer:
         self._register_resources()
         tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
 
+    @property
+    def mcp_server(self) -> ControlServer:
+        """The SDK server (what ``mcp.Client`` connects to in-process, or what runs over stdio or HTTP)."""
+        return self.server
+
     # ------------------------------------------------------------------ tools
     def _instructions(self) -> str:
         return (
             "Tools and observations of an autonomous car driven by a model predictive controller (Fourier "
             "MPPI). The controller minimises a sum of attached primitive objectives; the tools attach or "
             "detach them. Speeds are in m/s (1 m/s = 3.6 km/h), between 0 and the road speed limit "
-            f"({self.max_speed_mps:g} m/s). Read mpc://specification/initial for the original specification."
+            f"({self.max_speed_mps:g} m/s). Read {INITIAL_SPECIFICATION_URI} for the original specification."
         )
 
     def _tools(self) -> list[Tool]:
@@ -304,32 +292,32 @@ class AgenticMPCServer:
         def observation() -> dict[str, Any]:
             return self.latest_observation()
 
-        @server.resource("sumo://ego", name="ego", description="The ego vehicle: position, heading, speed, lane.",
+        @server.resource(EGO_URI, name="ego", description="The ego vehicle: position, heading, speed, lane.",
                          mime_type="application/json")
         def ego() -> str:
             obs = observation()
             return _json({"time_s": obs.get("time_s"), "ego": obs.get("ego"), "collisions": obs.get("collisions", [])})
 
-        @server.resource("sumo://traffic", name="traffic", description="Every other road user near the ego.",
+        @server.resource(TRAFFIC_URI, name="traffic", description="Every other road user near the ego.",
                          mime_type="application/json")
         def traffic() -> str:
             obs = observation()
             return _json({"time_s": obs.get("time_s"), "vehicles": obs.get("traffic", [])})
 
-        @server.resource("sumo://emergency-vehicles", name="emergency-vehicles",
+        @server.resource(EMERGENCY_VEHICLES_URI, name="emergency-vehicles",
                          description="Emergency vehicles (ambulances, fire engines, police) near the ego.",
                          mime_type="application/json")
         def emergency_vehicles() -> str:
             obs = observation()
             return _json({"time_s": obs.get("time_s"), "emergency_vehicles": obs.get("emergency_vehicles", [])})
 
-        @server.resource("sumo://obstacles", name="obstacles", description="Static obstacles on the road.",
+        @server.resource(OBSTACLES_URI, name="obstacles", description="Static obstacles on the road.",
                          mime_type="application/json")
         def obstacles() -> str:
             obs = observation()
             return _json({"time_s": obs.get("time_s"), "obstacles": obs.get("obstacles", [])})
 
-        @server.resource("sumo://vehicle/{vehicle_id}", name="vehicle",
+        @server.resource(VEHICLE_URI_TEMPLATE, name="vehicle",
                          description="One road user by id (the ego is 'ego').", mime_type="application/json")
         def vehicle(vehicle_id: str) -> str:
             obs = observation()
@@ -348,13 +336,13 @@ class AgenticMPCServer:
             spec, version = slot.snapshot()
             return _json({"version": version, **_spec_json(spec), "pending": self.tools.pending()})
 
-        @server.resource("mpc://specification/initial", name="initial-specification",
+        @server.resource(INITIAL_SPECIFICATION_URI, name="initial-specification",
                          description="The specification the car started with (restore it when a situation is over).",
                          mime_type="application/json")
         def initial_specification() -> str:
             return _json(_spec_json(slot.initial))
 
-        @server.resource("mpc://pool", name="pool", description="Every primitive objective family and its parameters.",
+        @server.resource(POOL_URI, name="pool", description="Every primitive objective family and its parameters.",
                          mime_type="application/json")
         def pool() -> str:
             return _json({"pool": describe_pool()})
@@ -373,9 +361,9 @@ class AgenticMPCServer:
         if t - self._last_published_s < self.publish_interval_s - 1e-9 and t >= self._last_published_s:
             return
         self._last_published_s = t
-        for uri in ("sumo://ego", "sumo://traffic"):
+        for uri in (EGO_URI, TRAFFIC_URI):
             self.bus.publish_threadsafe(ResourceUpdated(uri=uri))
-        for uri, key in (("sumo://emergency-vehicles", "emergency_vehicles"), ("sumo://obstacles", "obstacles")):
+        for uri, key in ((EMERGENCY_VEHICLES_URI, "emergency_vehicles"), (OBSTACLES_URI, "obstacles")):
             content = json.dumps(obs.get(key, []), sort_keys=True, default=str)
             if content != self._last_static.get(uri) or (key == "emergency_vehicles" and obs.get(key)):
                 self._last_static[uri] = content

@@ -1,0 +1,74 @@
+"""The contract between the MCP server (:mod:`agentic_mpc.mcp.server`) and its clients (our agent, any host).
+
+A client that knows this module needs nothing of the server's implementation:
+
+- the resource URIs the server registers, all JSON: the observation resources (:data:`EGO_URI`,
+  :data:`TRAFFIC_URI`, :data:`EMERGENCY_VEHICLES_URI`, :data:`OBSTACLES_URI`, together
+  :data:`OBSERVATION_URIS`), one road user by id (:data:`VEHICLE_URI_TEMPLATE`), the specification attached
+  now (:data:`SPECIFICATION_URI`), the one the car started with (:data:`INITIAL_SPECIFICATION_URI`) and the
+  primitive pool (:data:`POOL_URI`);
+- :data:`APPLY_AT_META_KEY`, the ``tools/call`` request ``_meta`` key that schedules a change at a sim time;
+- :func:`validate_arguments`, the check the server applies to every tool call against the tool's published
+  input schema (a client may run it first to answer a bad call without a round trip).
+
+It imports neither the MCP SDK nor anything of the tools.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+APPLY_AT_META_KEY = "agentic-mpc/apply_at_s"
+"""Request ``_meta`` key: apply the tool call's change at this sim time (lockstep)."""
+
+EGO_URI = "sumo://ego"
+"""The ego vehicle: position, heading, speed, lane; and the collisions so far."""
+TRAFFIC_URI = "sumo://traffic"
+"""Every other road user near the ego."""
+EMERGENCY_VEHICLES_URI = "sumo://emergency-vehicles"
+"""Emergency vehicles near the ego."""
+OBSTACLES_URI = "sumo://obstacles"
+"""Static obstacles on the road."""
+OBSERVATION_URIS = (EGO_URI, TRAFFIC_URI, EMERGENCY_VEHICLES_URI, OBSTACLES_URI)
+"""The resources read from the world's latest observation; updated as the simulation advances."""
+VEHICLE_URI_TEMPLATE = "sumo://vehicle/{vehicle_id}"
+"""One road user by id (the ego is ``ego``)."""
+
+SPECIFICATION_URI = "mpc://specification"
+"""The specification attached now, its version and the pending scheduled changes."""
+INITIAL_SPECIFICATION_URI = "mpc://specification/initial"
+"""The specification the car started with."""
+POOL_URI = "mpc://pool"
+"""Every primitive objective family and its parameters."""
+
+
+def _non_finite(value: Any, path: str = "") -> str | None:
+    """The path of the first non-finite float in ``value`` (nested dicts and lists), or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return path or "(value)"
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if (found := _non_finite(item, f"{path}.{key}" if path else str(key))) is not None:
+                return found
+    if isinstance(value, list):
+        for index, item in enumerate(value):
+            if (found := _non_finite(item, f"{path}[{index}]")) is not None:
+                return found
+    return None
+
+
+def validate_arguments(tool_name: str, schema: dict[str, Any], arguments: Any) -> None:
+    """Raise ``ValueError`` with a readable message if ``arguments`` break ``schema`` or are not finite."""
+    import jsonschema  # deferred: slow to import, and only needed once a call is checked
+
+    if not isinstance(arguments, dict):
+        raise ValueError(  # noqa: TRY004 - callers catch one error type for every bad call
+            f"arguments of {tool_name} must be a JSON object, got {type(arguments).__name__}"
+        )
+    if (where := _non_finite(arguments)) is not None:
+        raise ValueError(f"invalid arguments for {tool_name}: {where} is not a finite number")
+    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(arguments), key=lambda e: list(e.path))
+    if errors:
+        details = "; ".join(f"{'.'.join(map(str, e.path)) or 'arguments'}: {e.message}" for e in errors)
+        raise ValueError(f"invalid arguments for {tool_name}: {details}")

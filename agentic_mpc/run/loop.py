@@ -1,0 +1,170 @@
+"""The one run loop: it owns the controller, the specification slot, the tools, the MCP server, the agent,
+the message timeline and the recorder, and steps any :class:`~agentic_mpc.world.base.World`.
+
+One control step at simulation time t (:meth:`RunLoop.step`):
+
+1. lockstep tool calls whose time has come take effect (``ControllerTools.apply_due``);
+2. the timeline's messages due at t (by time, or a delay after an emergency-vehicle event) go to the agent;
+   in lockstep mode the loop waits for the agent (sim time is frozen, its latency is charged in sim time),
+   in realtime mode it does not;
+3. one snapshot of the specification; the world's surroundings; the controller's inputs;
+4. the world advances one step with those inputs (the plant moves, the traffic reacts);
+5. the MCP server announces the new observation; emergency-vehicle events may wake the agent
+   (observation messages); the step is recorded.
+
+``run``, ``batch``, ``serve`` and ``ask`` are all this loop: ``serve`` paces it to the wall clock and leaves
+the agent's part to an outside MCP host, ``ask`` builds it and never advances.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agentic_mpc.controller import FourierMPPI, MPPIConfig
+from agentic_mpc.mcp.server import AgenticMPCServer, build_server
+from agentic_mpc.mcp.tools import ControllerTools
+from agentic_mpc.primitives import PreferredSteeringDirection, Specification, SpecificationSlot
+from agentic_mpc.run.recorder import RunRecorder, StepOutcome
+from agentic_mpc.run.timeline import MessageSchedule, TimedMessage
+from agentic_mpc.vehicle import throttle_for_steady_speed
+from agentic_mpc.world.base import World
+from agentic_mpc.world.emergency import EmergencyDetector
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """When a run ends and how it is paced."""
+
+    duration_s: float
+    """Simulation time at which the run ends (the world's clock, warm-up included)."""
+    stop_at_goal: bool = True
+    traffic_stride: int = 5
+    """Record the other road users every this many steps."""
+    pace: float | None = None
+    """Wall seconds per simulated second (1 = real time; None: as fast as it goes)."""
+    alert_distance_m: float = 80.0
+    """How far behind an emergency vehicle starts to matter (events and observation messages)."""
+
+
+@dataclass
+class AgentSetup:
+    """The embedded agent: a backend and how it runs. Observation messages wake it on emergency events."""
+
+    backend: Any
+    config: Any
+    """An :class:`~agentic_mpc.agent.agent.AgentConfig`."""
+    observation_messages: bool = False
+    transcript_path: Path | None = field(default=None)
+
+
+class RunLoop:
+    """One run over ``world`` from ``specification`` (see the module docstring). Use as a context manager, or
+    call :meth:`close`; :meth:`run` steps to the end, :meth:`step` one control step."""
+
+    def __init__(
+        self,
+        world: World,
+        specification: Specification,
+        settings: LoopSettings,
+        *,
+        controller: MPPIConfig | None = None,
+        seed: int = 0,
+        messages: Sequence[TimedMessage] = (),
+        agent: AgentSetup | None = None,
+        steering_template: PreferredSteeringDirection | None = None,
+        server_options: dict[str, Any] | None = None,
+    ) -> None:
+        self.world = world
+        self.settings = settings
+        self.controller = FourierMPPI(controller, seed=seed)
+        mean = np.zeros((2, self.controller.config.coefficients))
+        mean[1, 0] = throttle_for_steady_speed(float(world.ego_state[3]))  # start cruising, not coasting
+        self.controller.reset(mean)
+        self.recorder = RunRecorder(world, settings.traffic_stride)
+        self.slot = SpecificationSlot(specification)
+        self.slot.subscribe(self.recorder.specification_changed)
+        self.tools = ControllerTools(self.slot, world.lanes, steering_template)
+        self.server: AgenticMPCServer = build_server(
+            self.tools, lambda: world.observation.to_json(), **(server_options or {})
+        )
+        self.detector = EmergencyDetector(settings.alert_distance_m)
+        self.schedule = MessageSchedule(tuple(messages), self.detector)
+        self.stop = threading.Event()
+        """Set it (from any thread) to end :meth:`run` after the current step."""
+        self.agent: Any = None
+        self._observation_messages = False
+        if agent is not None:
+            from agentic_mpc.agent.agent import Agent
+
+            self.agent = Agent(agent.backend, self.server, agent.config, sim_clock=lambda: world.time_s).start()
+            self._observation_messages = agent.observation_messages
+        self._lockstep = self.agent is not None and self.agent.config.timing == "lockstep"
+
+    # ------------------------------------------------------------------ stepping
+    @property
+    def finished(self) -> bool:
+        world, s = self.world, self.settings
+        reached = s.stop_at_goal and world.observation.ego.road_s_m >= world.goal_s_m
+        return reached or world.time_s >= s.duration_s - 1e-9 or self.stop.is_set()
+
+    def step(self) -> StepOutcome:
+        """One control step (see the module docstring). Raises the world's error if it fails."""
+        world = self.world
+        t = world.time_s
+        self.tools.apply_due(t)
+        for message in self.schedule.due(t) if self.agent is not None else ():
+            self.agent.deliver(message.text, sim_time_s=t)  # lockstep: returns when the agent is idle
+            self.tools.apply_due(t)  # a zero-latency lockstep call applies now
+        started = time.perf_counter()
+        specification, version = self.slot.snapshot()
+        before, state = world.observation, world.ego_state
+        tracking = specification.get("path_tracking")
+        surroundings = world.surroundings(self.controller.config.horizon, getattr(tracking, "path", None))
+        output = self.controller.step(state, specification, surroundings)
+        after = world.advance(output.delta, output.throttle, output.brake)
+        outcome = StepOutcome(before, state, output, specification, version, len(surroundings.moving_discs),
+                              (time.perf_counter() - started) * 1e3)
+        self.server.publish_observation(after.to_json())
+        for event in self.detector.update(after):
+            if self._observation_messages:
+                self.agent.deliver(event.message(), sim_time_s=round(after.time_s, 3), source="observation")
+        self.recorder.step(outcome, after)
+        return outcome
+
+    def run(self) -> None:
+        """Step until the end of the run, the goal (if it stops there) or :attr:`stop`."""
+        pace = self.settings.pace
+        wall_start, sim_start = time.perf_counter(), self.world.time_s
+        while not self.finished:
+            if pace:  # the simulation waits for the wall clock (an outside MCP host drives in real time)
+                due = wall_start + (self.world.time_s - sim_start) * pace
+                if self.stop.wait(max(0.0, due - time.perf_counter())):
+                    break
+            self.step()
+
+    # ------------------------------------------------------------------ closing
+    @property
+    def transcript(self) -> list[dict[str, Any]]:
+        return self.agent.transcript.records if self.agent is not None else []
+
+    def close(self) -> None:
+        """Stop the agent and the world (idempotent); what was recorded stays."""
+        if self.agent is not None:
+            self.agent.close()
+        self.world.close()
+
+    def __enter__(self) -> RunLoop:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,148 @@
+"""What a run records, and the files it writes: ``trajectory.csv`` (one row per control step),
+``traffic.csv`` (the other road users every few steps), ``events.csv`` (messages, tool calls, specification
+changes), ``obstacles.csv`` and ``summary.csv`` (the metrics of :mod:`agentic_mpc.scenario.metrics`)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from agentic_mpc.primitives import PathTracking, Specification
+from agentic_mpc.scenario.metrics import MetricsRecorder, ObstacleTrack, summarise
+from agentic_mpc.world.base import World
+from agentic_mpc.world.observation import Observation
+
+TRAFFIC_COLUMNS = ("time_s", "id", "type_id", "vclass", "x_m", "y_m", "heading_rad", "speed_mps", "lane_id",
+                   "road_s_m", "gap_m", "relation", "emergency")
+EVENT_COLUMNS = ("event", "tau", "sim_time_s", "role", "source", "content", "tool", "arguments", "ok", "result",
+                 "error", "apply_at_s")
+
+
+@dataclass(frozen=True, slots=True)
+class StepOutcome:
+    """One control step as the loop saw it: the state and observation at t, what the controller did."""
+
+    observation: Observation
+    """At t, before the step."""
+    state: Any
+    """The plant's [x, y, phi, v] at t."""
+    output: Any
+    """The controller's :class:`~agentic_mpc.controller.mppi.StepOutput`."""
+    specification: Specification
+    version: int
+    discs: int
+    step_ms: float
+    """Wall time of the whole step (surroundings, controller, the world's advance)."""
+
+
+class RunRecorder:
+    """Collects a run's rows while it goes and writes its files at the end (also after a failure)."""
+
+    def __init__(self, world: World, traffic_stride: int = 5) -> None:
+        self.world = world
+        self.traffic_stride = traffic_stride
+        self.trajectory_rows: list[dict[str, Any]] = []
+        self.traffic_rows: list[dict[str, Any]] = []
+        self.specification_events: list[dict[str, Any]] = []
+        self.metrics = MetricsRecorder()
+        circles = world.obstacle_circles()
+        for obstacle in world.observation.obstacles:
+            own = tuple(c for c in circles if c.label == obstacle.id)
+            self.metrics.obstacles.append(ObstacleTrack(obstacle.id, own, obstacle.road_s_m, obstacle.lane_index))
+
+    def specification_changed(self, specification: Specification, version: int) -> None:
+        self.specification_events.append(
+            {"event": "specification", "sim_time_s": round(self.world.time_s, 3), "tau": None,
+             "result": json.dumps({"version": version, "attached": specification.summary()})}
+        )
+
+    def step(self, outcome: StepOutcome, after: Observation) -> None:
+        """Record one step: ``outcome`` at t and the observation ``after`` it (t + dt)."""
+        before, state, out = outcome.observation, outcome.state, outcome.output
+        ego = before.ego
+        x, y = float(state[0]), float(state[1])
+        row: dict[str, Any] = {
+            "time_s": before.time_s, "x_m": x, "y_m": y, "phi_rad": float(state[2]), "v_mps": float(state[3]),
+            "delta": out.delta, "throttle": out.throttle, "brake": out.brake,
+            "sumo_x_m": ego.x_m, "sumo_y_m": ego.y_m, "sumo_heading_rad": ego.heading_rad,
+            "sumo_speed_mps": ego.speed_mps, "lane_id": ego.lane_id, "lane_index": ego.lane_index,
+            "lane_role": ego.lane_role, "road_s_m": ego.road_s_m, "lateral_offset_m": ego.lateral_offset_m,
+            "spec_version": outcome.version, "spec_summary": outcome.specification.summary(),
+            "cost_min": out.cost_min, "effective_samples": out.effective_samples, "solve_ms": out.solve_ms,
+            "step_ms": outcome.step_ms, "vehicles_in_range": len(before.traffic), "discs": outcome.discs,
+            "collisions": sum(1 for c in before.collisions if c.involves_ego),
+        }
+        tracking = outcome.specification.get("path_tracking")
+        if isinstance(tracking, PathTracking):
+            row["tracked_lane"] = tracking.lane
+            row["v_ref_mps"] = tracking.v_ref_mps
+            row["tracked_lane_offset_m"] = float(tracking.path.lateral_offset(x, y)[0])
+        else:
+            row["tracked_lane"], row["v_ref_mps"], row["tracked_lane_offset_m"] = "", float("nan"), float("nan")
+        self.trajectory_rows.append(row)
+        self.metrics.observe(after, self.world.lateral_offset_m)
+        for emergency in after.emergency_vehicles:
+            loss = self.world.time_loss_s(emergency.vehicle.id)
+            if loss is not None:
+                self.metrics.record_time_loss(emergency.vehicle.id, loss)
+        if (len(self.trajectory_rows) - 1) % self.traffic_stride == 0:
+            self._traffic(after)
+
+    def _traffic(self, observation: Observation) -> None:
+        emergency_ids = {e.vehicle.id for e in observation.emergency_vehicles}
+        others = {v.id: v for v in observation.traffic}
+        others.update({e.vehicle.id: e.vehicle for e in observation.emergency_vehicles})
+        for vehicle in others.values():
+            self.traffic_rows.append(
+                {
+                    "time_s": observation.time_s, "id": vehicle.id, "type_id": vehicle.type_id,
+                    "vclass": vehicle.vclass, "x_m": vehicle.x_m, "y_m": vehicle.y_m,
+                    "heading_rad": vehicle.heading_rad, "speed_mps": vehicle.speed_mps,
+                    "lane_id": vehicle.lane_id, "road_s_m": vehicle.road_s_m, "gap_m": vehicle.gap_m,
+                    "relation": vehicle.relation, "emergency": vehicle.id in emergency_ids,
+                }
+            )
+
+    def write(self, out_dir: Path, identity: dict[str, Any], transcript: list[dict[str, Any]], wall_s: float,
+              error: BaseException | None) -> dict[str, Any]:
+        """Write the run's CSV files; returns the summary row (``identity`` first, then the metrics)."""
+        import pandas as pd
+
+        trajectory = pd.DataFrame(self.trajectory_rows)
+        trajectory.to_csv(out_dir / "trajectory.csv", index=False)
+        pd.DataFrame(self.traffic_rows, columns=list(TRAFFIC_COLUMNS)).to_csv(out_dir / "traffic.csv", index=False)
+        events = events_table(sorted(transcript + self.specification_events,
+                                     key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
+        events.to_csv(out_dir / "events.csv", index=False)
+        summary: dict[str, Any] = {
+            **identity,
+            "status": "ok" if error is None else "failed",
+            "error": "" if error is None else f"{type(error).__name__}: {error}",
+        }
+        summary.update(
+            summarise(trajectory, self.metrics, goal_s_m=self.world.goal_s_m,
+                      agent_tool_calls=int((events["event"] == "tool_call").sum()) if len(events) else 0)
+        )
+        summary["wall_s"] = round(wall_s, 3)
+        pd.DataFrame([summary]).to_csv(out_dir / "summary.csv", index=False)
+        pd.DataFrame(
+            [(c.label, c.x_m, c.y_m, c.radius_m) for track in self.metrics.obstacles for c in track.circles],
+            columns=["id", "x_m", "y_m", "radius_m"],
+        ).to_csv(out_dir / "obstacles.csv", index=False)
+        return summary
+
+
+def events_table(transcript: list[dict[str, Any]]) -> Any:
+    """The transcript as one row per message, tool call and result, with tau and simulation time."""
+    import pandas as pd
+
+    rows = []
+    for record in transcript:
+        row = {key: record.get(key) for key in EVENT_COLUMNS}
+        for key in ("arguments", "result"):
+            if row[key] is not None and not isinstance(row[key], str):
+                row[key] = json.dumps(row[key], default=str)
+        rows.append(row)
+    return pd.DataFrame(rows, columns=list(EVENT_COLUMNS))

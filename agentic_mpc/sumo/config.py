@@ -1,0 +1,131 @@
+"""What a SUMO world is made of: the network, route files, the ego's start, scenario vehicles and obstacles.
+
+Validated (pydantic) before SUMO starts; positions name a lane of the ego's road by index or role. The
+controller's and the specification's settings are not here: they belong to the run (see the scenario).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+LaneRef = int | Literal["left", "center", "right"]
+
+
+class SurroundingsConfig(BaseModel):
+    """How the observation becomes the controller's surroundings."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    clearance_margin_m: float = Field(
+        0.5, ge=0, description="disc radius = (W + W_ego)/2 + margin; also how far the cover overshoots at corners"
+    )
+    max_discs_per_vehicle: int = Field(8, ge=1, le=16)
+    lane_entry_margin_m: float | None = Field(
+        0.4, ge=0, description="cover at least half the lane width + this sideways (None: physical size only)"
+    )
+    range_ahead_m: float = Field(80.0, gt=0, description="vehicles further ahead (along the road) are left out")
+    range_behind_m: float = Field(40.0, ge=0, description="vehicles further behind are left out")
+    longitudinal_slack_m: float = Field(
+        12.0, ge=0, description="a vehicle is relevant if it comes this close (beyond its cover) within the horizon"
+    )
+    ignore_followers_in_lane: bool = Field(True, description="leave out vehicles right behind in the ego's lane")
+    leader_time_headway_s: float = Field(
+        1.0, ge=0, description="the cover of a vehicle ahead in the ego's lane reaches back this headway"
+    )
+    leader_standstill_gap_m: float = Field(2.0, ge=0, description="... plus this gap (the ego keeps its distance)")
+    edges: Literal["road", "corridor", "none"] = Field(
+        "road",
+        description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"
+        " (those its box overlaps + the lane J1 tracks); or none",
+    )
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+
+class EgoStart(_Frozen):
+    """Where the ego enters. Positions are SUMO lane positions of the FRONT bumper, as in SUMO's departPos."""
+
+    edge_id: str | None = Field(None, description="edge of the road to start on (default: the road's first)")
+    lane: LaneRef = Field("center", description="lane index or role")
+    pos_m: float = Field(30.0, ge=0, description="front-bumper lane position")
+    speed_mps: float = Field(15.0, ge=0, le=60)
+    lateral_offset_m: float = Field(0.0, description="start this far left (+) of the lane centre")
+
+
+class _Placed(_Frozen):
+    """A vehicle the scenario puts on a lane of the road: which, of what type, where."""
+
+    id: str = Field(..., min_length=1)
+    type_id: str
+    edge_id: str | None = Field(None, description="edge of the road (default: the road's first)")
+    lane: LaneRef = "center"
+    pos_m: float = Field(..., ge=0, description="front-bumper lane position")
+
+
+class VehicleSpawn(_Placed):
+    """A SUMO-driven vehicle placed by the scenario (in addition to any traffic in the route files)."""
+
+    type_id: str = "car"
+    speed_mps: float = Field(0.0, ge=0)
+    depart_s: float | None = Field(None, ge=0, description="insertion time (None: at the start)")
+    max_speed_mps: float | None = Field(None, gt=0)
+    speed_factor: float | None = Field(None, gt=0)
+    imperfection: float | None = Field(None, ge=0, le=1, description="Krauss sigma (0 = perfect driver)")
+    lane_changes: bool = Field(True, description="False: SUMO never changes this vehicle's lane")
+
+
+class StaticObstacle(_Placed):
+    """A stopped vehicle on a lane: SUMO traffic drives around or stops behind it, and J2 sees it."""
+
+    type_id: str = "obstacle"
+    in_j2: bool = Field(True, description="add it to the initial specification's obstacle avoidance (J2)")
+
+
+class SumoConfig(_Frozen):
+    """The SUMO world of a run: network, traffic, the ego's start, obstacles; validated before SUMO starts.
+
+    The seed is the run's (given to :class:`~agentic_mpc.sumo.world.SumoWorld`), not a field here."""
+
+    net_file: Path
+    route_files: tuple[Path, ...] = Field(..., min_length=1, description="must define the vTypes used")
+    road: str | tuple[str, ...] = Field(
+        ..., description="the ego's road: a start edge (followed while it has one successor) or the edge list"
+    )
+    sublane: bool = Field(False, description="SUMO's sublane model (lateral behaviour, about 10x per step)")
+    lateral_resolution_m: float = Field(0.4, gt=0)
+    ego: EgoStart = EgoStart()
+    ego_id: str = "ego"
+    ego_type_id: str = "ego"
+    vehicles: tuple[VehicleSpawn, ...] = ()
+    obstacles: tuple[StaticObstacle, ...] = ()
+    warmup_s: float = Field(0.0, ge=0, description="SUMO runs alone this long before the ego enters")
+    goal_s_m: float | None = Field(
+        None, description="along-road position of the ego's goal (default: 40 m before the road's end)"
+    )
+    sensing_range_m: float = Field(150.0, gt=0)
+    keep_route: Literal[2, 3] = Field(3, description="moveToXY keepRoute for the ego (see SumoBridge)")
+    surroundings: SurroundingsConfig = SurroundingsConfig()
+    sumo_log_file: Path | None = None
+    quiet: bool = Field(True, description="suppress SUMO's warnings on stderr")
+
+    def replace(self, **changes: Any) -> SumoConfig:
+        """A validated copy with ``changes`` (pydantic's ``model_copy(update=...)`` skips validation)."""
+        return type(self).model_validate({**dict(self), **changes})
+
+    @field_validator("route_files", mode="before")
+    @classmethod
+    def _one_or_many(cls, value: Any) -> Any:
+        return (value,) if isinstance(value, (str, Path)) else value
+
+    @model_validator(mode="after")
+    def _unique_ids(self) -> SumoConfig:
+        ids = [self.ego_id, *(v.id for v in self.vehicles), *(o.id for o in self.obstacles)]
+        duplicates = sorted({i for i in ids if ids.count(i) > 1})
+        if duplicates:
+            raise ValueError(f"vehicle ids must be unique, duplicated: {duplicates}")
+        return self

@@ -1,0 +1,327 @@
+"""The SUMO world: SUMO (libsumo) drives everybody else, our bicycle model drives the ego.
+
+One :meth:`SumoWorld.advance` (time t -> t + dt) with the controller's inputs:
+
+1. advance our bicycle model (``agentic_mpc.vehicle.step``): the plant is ours, not SUMO's;
+2. push the ego's new pose and speed into SUMO (``moveToXY`` with x, y kept exactly; the bridge converts
+   centre -> front bumper and heading -> navigational angle, and writes our speed after the step);
+3. let SUMO step: its traffic reacts to the ego, collisions are collected;
+4. observe: the :class:`~agentic_mpc.world.observation.Observation` at t + dt, the ego exactly where our
+   model put it.
+
+On any failure SUMO is closed and :class:`~agentic_mpc.world.base.WorldError` is raised; the last
+observation stays readable.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+import xml.etree.ElementTree as ElementTree
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agentic_mpc import vehicle
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.primitives import Circle, Surroundings
+from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
+from agentic_mpc.sumo.config import LaneRef, SumoConfig
+from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
+from agentic_mpc.sumo.observations import ObservationBuilder
+from agentic_mpc.sumo.surroundings import SurroundingsBuilder, obstacle_circles
+from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
+from agentic_mpc.world.base import WorldError
+from agentic_mpc.world.lanes import RoadLanes
+from agentic_mpc.world.observation import Observation
+
+
+@dataclass
+class _Resolved:
+    """Config positions resolved against the network."""
+
+    edge_id: str
+    lane_index: int
+    pos_m: float
+
+
+class SumoWorld:
+    """A :class:`~agentic_mpc.world.base.World` simulated by SUMO. ``seed`` is SUMO's seed (the run's)."""
+
+    def __init__(self, config: SumoConfig, seed: int = 0, params: VehicleParams = PAPER_PARAMS) -> None:
+        self.config = config
+        self.seed = seed
+        self.params = params
+        self.dt_s = params.dt_s
+        self._bridge: SumoBridge | None = None
+        self._observation: Observation | None = None
+        for route_file in config.route_files:
+            if not Path(route_file).is_file():
+                raise WorldError(f"route file not found: {route_file}")
+        try:
+            self.network = RoadNetwork(config.net_file)
+            self.road: Road = self.network.road(config.road)
+        except NetworkError as error:
+            raise WorldError(str(error)) from error
+        self._ego_start = self._resolve(config.ego.edge_id, config.ego.lane, config.ego.pos_m, "ego start")
+        self._state = self._initial_state(self._ego_start)
+        for obstacle in config.obstacles:
+            self._resolve(obstacle.edge_id, obstacle.lane, obstacle.pos_m, f"obstacle {obstacle.id!r}")
+        for spawn in config.vehicles:
+            self._resolve(spawn.edge_id, spawn.lane, spawn.pos_m, f"vehicle {spawn.id!r}")
+        goal = config.goal_s_m if config.goal_s_m is not None else self.road.reference.length_m - 40.0
+        if not 0.0 < goal <= self.road.reference.length_m:
+            raise WorldError(f"goal_s_m={goal} is not on the road (0..{self.road.reference.length_m:.1f} m)")
+        self.goal_s_m = goal
+        self._start_sumo()
+        try:
+            info = self._bridge.info(config.ego_id)
+            self.ego_length_m, self.ego_width_m = info.length_m, info.width_m
+            self.obstacle_ids = tuple(o.id for o in config.obstacles)
+            self._obstacle_states: dict[str, VehicleState] = {}
+            self._lane_of_path: dict[int, tuple[Any, int | None]] = {}
+            self._surroundings: dict[int, SurroundingsBuilder] = {}
+            self._observer = ObservationBuilder(
+                self.road, config.ego_id, self._bridge.info, self.obstacle_ids, self._obstacle_state
+            )
+            self._observation = self._observe()
+        except SumoError as error:
+            self.close()
+            raise WorldError(f"SUMO world set-up failed: {error}") from error
+        except BaseException:
+            self.close()
+            raise
+
+    # --- set-up --------------------------------------------------------------------------------------
+    def _resolve(self, edge_id: str | None, lane: LaneRef, pos_m: float, what: str) -> _Resolved:
+        edge_id = edge_id or self.road.edge_ids[0]
+        if edge_id not in self.road.edge_ids:
+            raise WorldError(f"{what}: edge {edge_id!r} is not on the road {list(self.road.edge_ids)}")
+        try:
+            index = self.road.lane_index(lane)
+        except NetworkError as error:
+            raise WorldError(f"{what}: {error}") from error
+        length = self.network.edge(edge_id).getLane(index).getLength()
+        if not 0.0 <= pos_m <= length:
+            raise WorldError(
+                f"{what} is off the road: position {pos_m} m outside lane {edge_id}_{index} (0..{length:.1f} m)"
+            )
+        return _Resolved(edge_id, index, pos_m)
+
+    def _initial_state(self, start: _Resolved) -> np.ndarray:
+        """Centre pose of the ego's start: front bumper at pos_m, shifted sideways by lateral_offset_m."""
+        x_front, y_front, phi = self.road.pose_on_lane(f"{start.edge_id}_{start.lane_index}", start.pos_m)
+        ego_length = self._type_length(self.config.ego_type_id)
+        offset = self.config.ego.lateral_offset_m
+        x = x_front - 0.5 * ego_length * math.cos(phi) - offset * math.sin(phi)
+        y = y_front - 0.5 * ego_length * math.sin(phi) + offset * math.cos(phi)
+        if not self.road.contains(x, y):
+            raise WorldError(
+                f"ego start is off the road: centre ({x:.2f}, {y:.2f}) with lateral offset {offset} m is outside"
+                f" the carriageway ({self.road.width_m:.2f} m wide)"
+            )
+        return np.array([x, y, phi, self.config.ego.speed_mps])
+
+    def _type_length(self, type_id: str) -> float:
+        """A vType's length from the route files (before SUMO runs; SUMO's default is 5 m)."""
+        for route_file in self.config.route_files:
+            try:
+                root = ElementTree.parse(route_file).getroot()
+            except ElementTree.ParseError as error:
+                raise WorldError(f"malformed route file {route_file}: {error}") from error
+            for element in root.iter("vType"):
+                if element.get("id") == type_id:
+                    return float(element.get("length", 5.0))
+        raise WorldError(
+            f"vType {type_id!r} is not defined in the route files {[str(r) for r in self.config.route_files]}"
+        )
+
+    def _route_from(self, edge_id: str) -> str:
+        """The id of a SUMO route along the road from ``edge_id`` to its end (added once)."""
+        route_id = f"road_from_{edge_id}"
+        if route_id not in self._routes:
+            self._bridge.add_route(route_id, self.road.edge_ids[self.road.edge_ids.index(edge_id):])
+            self._routes.add(route_id)
+        return route_id
+
+    def _start_sumo(self) -> None:
+        c = self.config
+        try:
+            self._bridge = SumoBridge(
+                c.net_file, c.route_files, seed=self.seed, step_length_s=self.dt_s,
+                lateral_resolution_m=c.lateral_resolution_m if c.sublane else None,
+                log_file=c.sumo_log_file, quiet=c.quiet, keep_route=c.keep_route,
+            )
+        except SumoError as error:
+            raise WorldError(str(error)) from error
+        try:
+            self._routes: set[str] = set()
+            for obstacle in c.obstacles:
+                r = self._resolve(obstacle.edge_id, obstacle.lane, obstacle.pos_m, obstacle.id)
+                self._bridge.add_stopped_vehicle(
+                    obstacle.id, self._route_from(r.edge_id), obstacle.type_id,
+                    edge_id=r.edge_id, lane_index=r.lane_index, pos_m=r.pos_m,
+                )
+            # The ego is added before the scenario's vehicles (SUMO inserts in that order), so they, not the
+            # ego, wait if their spot is not free; with a warm-up they are part of the traffic the ego meets.
+            if c.warmup_s > 0.0:
+                self._add_spawns()
+                for _ in range(round(c.warmup_s / self.dt_s)):
+                    self._bridge.step()
+            start = self._ego_start
+            self._bridge.add_external_vehicle(
+                c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
+                pos_m=start.pos_m, speed_mps=c.ego.speed_mps, wait=False,
+            )
+            if c.warmup_s == 0.0:
+                self._add_spawns()
+            self._bridge.wait_until_inserted(c.ego_id)
+            self._bridge.subscribe_around(c.ego_id, c.sensing_range_m)
+            # Put the ego exactly at our initial state (lateral offset included) before the first control step.
+            self._bridge.move_external(c.ego_id, *self._state[:3], speed_mps=float(self._state[3]))
+            self._bridge.step()
+            present = set(self._bridge.vehicle_ids())
+            missing = [o.id for o in c.obstacles if o.id not in present]
+            if missing:
+                raise SumoError(f"SUMO did not insert the obstacles {missing} (their spot is occupied?)")
+            waiting = [v.id for v in c.vehicles if v.depart_s is None and v.id not in present]
+            if waiting:  # SUMO inserts them when their spot is free (its insertion rules), not now
+                warnings.warn(f"SUMO has not inserted {waiting} yet: no safe room at their start positions",
+                              stacklevel=3)
+        except (SumoError, WorldError) as error:
+            self.close()
+            raise WorldError(f"SUMO world set-up failed: {error}") from error
+        except BaseException:
+            self.close()
+            raise
+
+    def _add_spawns(self) -> None:
+        for spawn in self.config.vehicles:
+            r = self._resolve(spawn.edge_id, spawn.lane, spawn.pos_m, spawn.id)
+            self._bridge.add_vehicle(
+                spawn.id, self._route_from(r.edge_id), spawn.type_id, lane_index=r.lane_index, pos_m=r.pos_m,
+                speed_mps=spawn.speed_mps, depart_s=spawn.depart_s,
+            )
+            self._bridge.configure_vehicle(
+                spawn.id, max_speed_mps=spawn.max_speed_mps, speed_factor=spawn.speed_factor,
+                imperfection=spawn.imperfection, lane_change_mode=None if spawn.lane_changes else 0,
+            )
+
+    # --- the world interface -------------------------------------------------------------------------
+    @property
+    def bridge(self) -> SumoBridge:
+        """The SUMO bridge (for tests and scripts that need more than the observation)."""
+        if self._bridge is None:
+            raise WorldError("the SUMO world is closed")
+        return self._bridge
+
+    @property
+    def observation(self) -> Observation:
+        assert self._observation is not None
+        return self._observation
+
+    @property
+    def ego_state(self) -> np.ndarray:
+        return self._state
+
+    @property
+    def time_s(self) -> float:
+        return self._observation.time_s if self._observation is not None else float("nan")
+
+    @property
+    def running(self) -> bool:
+        return self._bridge is not None and self._bridge.running
+
+    def lanes(self) -> RoadLanes:
+        """The road's lanes by role and its speed limit (the lowest on the road)."""
+        lanes = {role: self.road.lane_paths[index] for role, index in self.road.lane_roles().items()}
+        limit = min(self.network.edge(edge_id).getSpeed() for edge_id in self.road.edge_ids)
+        return RoadLanes(lanes, float(limit), self.road.lefthand)
+
+    def lane(self, ref: int | str) -> tuple[str, LanePath]:
+        try:
+            index = self.road.lane_index(ref)
+        except NetworkError as error:
+            raise WorldError(str(error)) from error
+        return self.road.lane_role(index), self.road.lane_paths[index]
+
+    def lane_index_of(self, path: LanePath | None) -> int | None:
+        if path is None:
+            return None
+        cached = self._lane_of_path.get(id(path))
+        if cached is None or cached[0] is not path:  # ids are reused after garbage collection
+            lane = next((i for i, p in enumerate(self.road.lane_paths) if p is path or p == path), None)
+            cached = self._lane_of_path[id(path)] = (path, lane)
+        return cached[1]
+
+    def lateral_offset_m(self, lane_index: int, x_m: float, y_m: float) -> float:
+        return float(self.road.lane_paths[lane_index].lateral_offset(x_m, y_m)[0])
+
+    def obstacle_circles(self, only_in_j2: bool = False) -> tuple[Circle, ...]:
+        """J2 circles covering the configured obstacles (as SUMO placed them)."""
+        wanted = {o.id for o in self.config.obstacles if o.in_j2 or not only_in_j2}
+        return tuple(
+            circle
+            for obstacle in self.observation.obstacles
+            if obstacle.id in wanted
+            for circle in obstacle_circles(obstacle, self.ego_length_m, self.ego_width_m)
+        )
+
+    def surroundings(self, horizon: int, tracked_path: LanePath | None) -> Surroundings:
+        builder = self._surroundings.get(horizon)
+        if builder is None:
+            builder = self._surroundings[horizon] = SurroundingsBuilder(
+                self.road, self.ego_length_m, self.ego_width_m, horizon, self.dt_s, self.config.surroundings
+            )
+        return builder.build(self.observation, self._state, self.lane_index_of(tracked_path))
+
+    def advance(self, delta: float, throttle: float, brake: float) -> Observation:
+        if not self.running:
+            raise WorldError("the SUMO world is closed")
+        state = self._state
+        try:
+            new_state = vehicle.step(state, delta, throttle, brake, self.params)
+            self._bridge.move_external(
+                self.config.ego_id, float(new_state[0]), float(new_state[1]), float(new_state[2]),
+                speed_mps=float(new_state[3]), accel_mps2=float(new_state[3] - state[3]) / self.dt_s,
+            )
+            self._bridge.step()
+            self._observation = self._observe()
+        except Exception as error:
+            self.close()
+            raise WorldError(f"SUMO failed at t={self.time_s:.2f} s: {error}") from error
+        self._state = new_state
+        return self._observation
+
+    def time_loss_s(self, vehicle_id: str) -> float | None:
+        return self.bridge.time_loss_s(vehicle_id)
+
+    def close(self) -> None:
+        if self._bridge is not None:
+            self._bridge.close()
+
+    def __enter__(self) -> SumoWorld:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- helpers -------------------------------------------------------------------------------------
+    def _obstacle_state(self, obstacle_id: str) -> VehicleState | None:
+        state = self._obstacle_states.get(obstacle_id)
+        if state is None and self._bridge is not None and self._bridge.has_vehicle(obstacle_id):
+            state = self._bridge.vehicle_state(obstacle_id)
+            self._obstacle_states[obstacle_id] = state  # obstacles stand still: read once
+        return state
+
+    def _observe(self) -> Observation:
+        bridge = self.bridge
+        ego, others = bridge.around()
+        if ego is None:
+            raise SumoError(
+                f"the ego {self.config.ego_id!r} is no longer in SUMO at t={bridge.time_s:.2f} s"
+                " (it left its route's end or the network)"
+            )
+        return self._observer.build(bridge.time_s, ego, others, bridge.emergency_vehicles(), bridge.collisions)

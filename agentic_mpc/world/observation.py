@@ -1,0 +1,227 @@
+"""What the ego perceives at one step: the one observation type every world produces.
+
+The SUMO world and the plain-Python world build it; the controller's surroundings, the metrics, the MCP
+resources and the agent's observation messages read it. This module imports nothing of SUMO.
+
+Coordinates are the world's (metres), positions are vehicle CENTRES, headings are radians from +x
+counter-clockwise. Along-road quantities are measured on the road's centre line:
+
+- ``offset_m``: centre-to-centre distance along the road, positive when the other vehicle is ahead;
+- ``gap_m``: bumper-to-bumper clearance along the road (``|offset| - (length + ego length) / 2``);
+  negative when the two overlap lengthwise, i.e. drive alongside;
+- ``relation``: "ahead", "behind" or "alongside" (lengthwise overlap);
+- ``relative_lane``: lanes to the left of the ego's lane (+1 = one lane left, -1 = one lane right);
+- ``closing_speed_mps``: how fast the gap shrinks (positive = approaching).
+
+``Observation.to_json()`` is the stable, JSON-ready form (MCP resources, observation messages): a dict with
+exactly the keys ``time_s``, ``ego``, ``traffic``, ``emergency_vehicles``, ``obstacles``, ``collisions``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any, Literal
+
+
+Relation = Literal["ahead", "behind", "alongside"]
+
+JSON_KEYS = ("time_s", "ego", "traffic", "emergency_vehicles", "obstacles", "collisions")
+
+
+def _rounded(record: Any, digits: int = 3) -> dict[str, Any]:
+    out = {}
+    for key, value in asdict(record).items():
+        if isinstance(value, float):
+            value = round(value, digits) if math.isfinite(value) else None
+        out[key] = value
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class EgoObservation:
+    """The ego as SUMO reports it (position converted to the centre)."""
+
+    id: str
+    x_m: float
+    y_m: float
+    heading_rad: float
+    speed_mps: float
+    """SUMO's speed: the distance the ego was moved in the last step divided by the step length."""
+    lane_id: str
+    """'' when the ego is off every lane (then SUMO traffic ignores it)."""
+    lane_index: int
+    lane_role: str
+    """"left"/"center"/"right" (or "lane<i>"; "" off the road)."""
+    edge_id: str
+    road_s_m: float
+    lateral_offset_m: float
+    """Signed distance of the centre from the centre line of ``lane_id`` (positive to the left); off the
+    road, from the road's centre line."""
+    length_m: float
+    width_m: float
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleObservation:
+    """Another road user near the ego."""
+
+    id: str
+    type_id: str
+    vclass: str
+    x_m: float
+    y_m: float
+    heading_rad: float
+    speed_mps: float
+    vx_mps: float
+    vy_mps: float
+    lane_id: str
+    lane_index: int
+    lane_role: str
+    edge_id: str
+    length_m: float
+    width_m: float
+    road_s_m: float
+    offset_m: float
+    gap_m: float
+    relation: Relation
+    relative_lane: int | None
+    """None when the vehicle is not on a lane of the ego's road."""
+    lane_s_m: float | None
+    """Arc length of its centre on its lane's path through the road (None off the road): for prediction."""
+    lateral_offset_m: float
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class EmergencyVehicleObservation:
+    """An emergency-class vehicle (an ambulance) anywhere in the simulation, relative to the ego."""
+
+    vehicle: VehicleObservation
+    relation: Relation
+    distance_m: float
+    """Bumper-to-bumper distance along the road (behind: its front to the ego's rear); 0 when alongside."""
+    closing_speed_mps: float
+    """How fast ``distance_m`` shrinks (positive = it is catching up / we are catching up)."""
+    time_to_reach_s: float | None
+    """distance / closing speed when closing, else None."""
+    same_lane: bool
+
+    def to_json(self) -> dict[str, Any]:
+        data = self.vehicle.to_json()
+        data.update(
+            relation=self.relation,
+            distance_m=round(self.distance_m, 3),
+            closing_speed_mps=round(self.closing_speed_mps, 3),
+            time_to_reach_s=None if self.time_to_reach_s is None else round(self.time_to_reach_s, 3),
+            same_lane=self.same_lane,
+        )
+        return data
+
+
+@dataclass(frozen=True, slots=True)
+class ObstacleObservation:
+    """A static obstacle (a stopped vehicle SUMO traffic must drive around)."""
+
+    id: str
+    type_id: str
+    x_m: float
+    y_m: float
+    heading_rad: float
+    length_m: float
+    width_m: float
+    lane_id: str
+    lane_index: int
+    lane_role: str
+    road_s_m: float
+    offset_m: float
+    gap_m: float
+    relation: Relation
+    relative_lane: int | None
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class CollisionObservation:
+    """A collision in the last step: as SUMO reported it, or an overlap of the ego's box we found ourselves.
+
+    Without the sublane model SUMO only checks vehicles on the same lane, so a sideways overlap with a
+    half-changed ego goes unreported there; ``source="geometry"`` records catch those.
+    """
+
+    collider: str
+    victim: str
+    collider_type: str
+    victim_type: str
+    collider_speed_mps: float
+    victim_speed_mps: float
+    kind: str
+    lane_id: str
+    pos_m: float
+    involves_ego: bool
+    source: Literal["sumo", "geometry"]
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
+class Observation:
+    """One step's snapshot of the co-simulation, from the ego's point of view."""
+
+    time_s: float
+    ego: EgoObservation
+    traffic: tuple[VehicleObservation, ...]
+    """Vehicles within sensing range (obstacles excluded; an emergency vehicle in range is here too)."""
+    emergency_vehicles: tuple[EmergencyVehicleObservation, ...]
+    obstacles: tuple[ObstacleObservation, ...]
+    collisions: tuple[CollisionObservation, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict with exactly the keys of :data:`JSON_KEYS`."""
+        return {
+            "time_s": round(self.time_s, 3),
+            "ego": self.ego.to_json(),
+            "traffic": [v.to_json() for v in self.traffic],
+            "emergency_vehicles": [e.to_json() for e in self.emergency_vehicles],
+            "obstacles": [o.to_json() for o in self.obstacles],
+            "collisions": [c.to_json() for c in self.collisions],
+        }
+
+    def vehicle(self, vehicle_id: str) -> VehicleObservation | None:
+        return next((v for v in self.traffic if v.id == vehicle_id), None)
+
+    @property
+    def ego_collided(self) -> bool:
+        return any(c.involves_ego for c in self.collisions)
+
+
+def corners(x: float, y: float, heading: float, length: float, width: float) -> list[tuple[float, float]]:
+    c, s = math.cos(heading), math.sin(heading)
+    hl, hw = 0.5 * length, 0.5 * width
+    return [(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (hl, -hw), (-hl, -hw), (-hl, hw))]
+
+
+def boxes_overlap(a: Any, b: Any) -> bool:
+    """Separating-axis test of two oriented rectangles (x_m, y_m, heading_rad, length_m, width_m)."""
+    reach = 0.5 * (math.hypot(a.length_m, a.width_m) + math.hypot(b.length_m, b.width_m))
+    if (a.x_m - b.x_m) ** 2 + (a.y_m - b.y_m) ** 2 > reach * reach:
+        return False
+    ca = corners(a.x_m, a.y_m, a.heading_rad, a.length_m, a.width_m)
+    cb = corners(b.x_m, b.y_m, b.heading_rad, b.length_m, b.width_m)
+    for heading in (a.heading_rad, b.heading_rad):
+        c, s = math.cos(heading), math.sin(heading)
+        for ax, ay in ((c, s), (-s, c)):
+            pa = [x * ax + y * ay for x, y in ca]
+            pb = [x * ax + y * ay for x, y in cb]
+            if max(pa) < min(pb) or max(pb) < min(pa):
+                return False
+    return True

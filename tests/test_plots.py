@@ -1,0 +1,185 @@
+"""The figures (agentic_mpc.plots) and ``agentic-mpc plot`` on synthetic run and batch directories."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import pytest
+
+from agentic_mpc import plots
+from agentic_mpc.cli import main
+from agentic_mpc.commands.plot import lanes_of, recorded_obstacles
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.primitives import Circle
+from agentic_mpc.run.recorder import EVENT_COLUMNS, TRAFFIC_COLUMNS
+from agentic_mpc.scenario.metrics import MetricsRecorder, ObstacleTrack
+from agentic_mpc.world.lanes import RoadLanes
+
+REPO = Path(__file__).resolve().parents[1]
+PLAIN_WORLD = {"road": {"start_x_m": -20.0, "length_m": 420.0}, "obstacles": [{"id": "obstacle", "x_m": 45.0, "y_m": 0.0}]}
+
+
+class FakeWorld:
+    """A lanes source: three straight lanes ``width`` apart (listed out of order)."""
+
+    def __init__(self, width: float = 3.2) -> None:
+        def lane(y: float, name: str) -> LanePath:
+            return LanePath.straight((-20.0, y), (400.0, y), name=name)
+
+        self._lanes = RoadLanes({"left": lane(width, "left"), "right": lane(-width, "right"), "center": lane(0.0, "c")},
+                                25.0)
+
+    def lanes(self) -> RoadLanes:
+        return self._lanes
+
+
+def write_run(directory: Path, variant_shift_m: float = 0.0, ambulance: bool = True) -> Path:
+    """A run directory as the recorder writes it (no scenario.json)."""
+    directory.mkdir(parents=True, exist_ok=True)
+    t = np.arange(0.0, 8.0, 0.1)
+    x = 15.0 * t
+    y = variant_shift_m * np.sin(np.pi * t / 8.0)
+    pd.DataFrame({"time_s": t, "x_m": x, "y_m": y, "v_mps": 15.0 + 0.1 * np.sin(t), "v_ref_mps": 15.0,
+                  "road_s_m": x, "tracked_lane_offset_m": y, "lateral_offset_m": y}).to_csv(
+        directory / "trajectory.csv", index=False)
+    traffic = pd.DataFrame(
+        [{"time_s": s, "id": "ambulance", "type_id": "emergency", "vclass": "emergency", "x_m": 20.0 * s - 60.0,
+          "y_m": 0.0, "heading_rad": 0.0, "speed_mps": 20.0, "lane_id": "e_1", "road_s_m": 20.0 * s - 60.0,
+          "gap_m": 1.0, "relation": "behind", "emergency": True} for s in t[::5]] if ambulance else [],
+        columns=list(TRAFFIC_COLUMNS))
+    traffic.to_csv(directory / "traffic.csv", index=False)
+    call = {"event": "tool_call", "sim_time_s": 1.0, "tool": "set_preferred_steering_direction",
+            "arguments": '{"direction": "left"}', "apply_at_s": 1.5}
+    pd.DataFrame([call], columns=list(EVENT_COLUMNS)).to_csv(directory / "events.csv", index=False)
+    pd.DataFrame([("obstacle", 45.0, 0.0, 2.0)], columns=["id", "x_m", "y_m", "radius_m"]).to_csv(
+        directory / "obstacles.csv", index=False)
+    return directory
+
+
+def write_scenario(directory: Path, variant: str, world: dict) -> None:
+    scenario = {"name": directory.parent.parent.name, "variant": variant, "seed": 0, "simulation": None,
+                "plain_world": None, **world}
+    (directory / "scenario.json").write_text(json.dumps(scenario), encoding="utf-8")
+
+
+def solid_and_dashed(ax) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    lines = ax.get_lines()
+    return ([line.get_xydata() for line in lines if line.get_linestyle() == "-"],
+            [line.get_xydata() for line in lines if line.get_linestyle() == "--"])
+
+
+def test_one_palette_paper_colours_first_then_the_others_in_order():
+    variants = ["dense", "light", "message_left", "no_message"]
+    assert plots.colour_of("message_left", variants) == "tab:blue"
+    assert plots.colour_of("no_message", variants) == plots.colour_of("unaware", variants) == "0.35"
+    assert [plots.colour_of(v, variants) for v in ("dense", "light")] == list(plots.PALETTE[:2])
+
+
+@pytest.mark.parametrize("width", [3.2, 4.0])
+def test_road_edges_are_the_outermost_lanes_shifted_by_half_the_measured_lane_width(width):
+    fig, ax = plt.subplots()
+    plots._draw_road(ax, list(FakeWorld(width).lanes().lanes.values()))
+    edges, centres = solid_and_dashed(ax)
+    plt.close(fig)
+    assert len(centres) == 3
+    assert sorted(float(edge[0, 1]) for edge in edges) == pytest.approx([-1.5 * width, 1.5 * width])
+
+
+def test_a_single_lane_gets_the_default_width():
+    fig, ax = plt.subplots()
+    plots._draw_road(ax, [LanePath.straight((0.0, 0.0), (0.0, 100.0), name="north")])  # heading +y: left is -x
+    edges, _ = solid_and_dashed(ax)
+    plt.close(fig)
+    assert sorted(float(edge[0, 0]) for edge in edges) == pytest.approx([-1.75, 1.75])
+
+
+def test_run_figure_draws_the_world_lanes_and_the_recorded_obstacles(tmp_path, monkeypatch):
+    run = write_run(tmp_path / "run", variant_shift_m=2.0)
+    metrics = MetricsRecorder(obstacles=[ObstacleTrack("o", (Circle(x_m=45.0, y_m=0.0, radius_m=2.0),), 45.0, 1)])
+    drawn, save = {}, plots._save
+
+    def keep(fig, path, dpi):
+        drawn["fig"] = fig
+        return save(fig, path, dpi)
+
+    monkeypatch.setattr(plots, "_save", keep)
+    path = plots.run_figure(run, FakeWorld(), metrics, title="synthetic")
+    assert path == run / "trajectory.png" and path.stat().st_size > 10_000
+    ax_map = drawn["fig"].axes[0]
+    _, centres = solid_and_dashed(ax_map)
+    assert len(centres) == 3 and len(ax_map.patches) == 1 and ax_map.get_title() == "synthetic"
+    assert {label.get_text() for label in ax_map.get_legend().get_texts()} == {"ego", "ambulance (emergency)"}
+    assert any("set_preferred_steering_direction(direction:left)" in t.get_text() for t in drawn["fig"].axes[1].texts)
+
+
+def test_run_figure_without_a_road_or_traffic(tmp_path):
+    run = write_run(tmp_path / "run", ambulance=False)
+    assert plots.run_figure(run, None, MetricsRecorder()).is_file()
+
+
+def test_batch_figures_per_scenario_with_the_road_from_road_of(tmp_path):
+    for variant, shift in (("message_left", 2.0), ("message_right", -2.0), ("custom", 0.5)):
+        write_run(tmp_path / "runs" / "steering" / variant / "seed-0", shift)
+    write_run(tmp_path / "runs" / "roadless" / "v" / "seed-0")
+    asked = []
+
+    def road_of(scenario_json: Path):
+        asked.append(scenario_json.parent.parent.parent.name)
+        return FakeWorld() if "steering" in str(scenario_json) else None
+
+    written = plots.batch_figures(tmp_path, road_of)
+    assert [p.name for p in written] == ["roadless_trajectories.png", "roadless_timeseries.png",
+                                         "steering_trajectories.png", "steering_timeseries.png"]
+    assert sorted(asked) == ["roadless", "steering"] and all(p.stat().st_size > 10_000 for p in written)
+
+
+def test_birds_eye_and_time_series_for_the_demo(tmp_path):
+    t = np.linspace(0.0, 5.0, 50)
+    states = np.column_stack([15.0 * t, np.sin(t), np.zeros_like(t), np.full_like(t, 15.0)])
+    lanes = [LanePath.straight((0.0, 0.0), (100.0, 0.0)), LanePath.straight((0.0, 3.5), (100.0, 3.5))]
+    trajectories = {"no_message": [states], "message_left": [states + [0, 1, 0, 0]], "other": [states]}
+    out = plots.birds_eye(trajectories, lanes, [Circle(x_m=45.0, y_m=0.0, radius_m=2.0)], tmp_path / "a" / "b.png",
+                          x_range_m=(0.0, 110.0))
+    series = {variant: [(t, s[:, 3], s[:, 1])] for variant, [s] in trajectories.items()}
+    out_t = plots.time_series(series, tmp_path / "t.png", v_ref_mps=15.0, events_s=[(1.0, "message")])
+    assert out.stat().st_size > 10_000 and out_t.stat().st_size > 10_000
+
+
+def test_lanes_of_rebuilds_a_plain_world_and_a_sumo_road(tmp_path):
+    run = write_run(tmp_path / "runs" / "s" / "v" / "seed-0")
+    write_scenario(run, "v", {"plain_world": PLAIN_WORLD})
+    plain = lanes_of(run / "scenario.json").lanes()
+    assert set(plain.lanes) == {"left", "center", "right"}
+    write_scenario(run, "v", {"simulation": {"net_file": str(REPO / "sumo_nets" / "straight.net.xml"), "road": "straight"}})
+    sumo = lanes_of(run / "scenario.json").lanes()
+    assert isinstance(sumo, RoadLanes) and sumo.speed_limit_mps > 0 and set(sumo.lanes) >= {"left", "right"}
+    write_scenario(run, "v", {})
+    assert lanes_of(run / "scenario.json") is None
+    assert [len(t.circles) for t in recorded_obstacles(run).obstacles] == [1]
+
+
+def test_plot_command_on_a_run_and_on_a_batch(tmp_path, capsys):
+    for variant in ("no_message", "message_left"):
+        run = write_run(tmp_path / "runs" / "plain" / variant / "seed-0", 1.0)
+        write_scenario(run, variant, {"plain_world": PLAIN_WORLD})
+    assert main(["plot", str(tmp_path)]) == 0
+    assert (tmp_path / "plain_trajectories.png").is_file() and (tmp_path / "plain_timeseries.png").is_file()
+    (run / "trajectory.png").unlink(missing_ok=True)
+    assert main(["plot", str(run)]) == 0
+    assert (run / "trajectory.png").stat().st_size > 10_000
+    assert main(["plot", str(tmp_path / "runs")]) == 2
+    assert "neither a run" in capsys.readouterr().err
+
+
+def test_nothing_imports_the_plots_at_package_import_time():
+    code = ("import sys, agentic_mpc, agentic_mpc.cli, agentic_mpc.scenario.runner, agentic_mpc.commands.plot; "
+            "print('agentic_mpc.plots' in sys.modules, 'matplotlib' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split()[0] == "False"
