@@ -25,7 +25,7 @@ from agentic_mpc.controller.config import MPPIConfig
 from agentic_mpc.controller.rollout import rollout
 from agentic_mpc.primitives.base import Rollouts, StepContext, Surroundings
 from agentic_mpc.primitives.specification import PreparedSpecification, Specification
-from agentic_mpc.vehicle import PAPER_PARAMS, STEER_LIMIT, VehicleParams, split_throttle_brake
+from agentic_mpc.vehicle import PAPER_PARAMS, STEER_LIMIT, VehicleParams
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,9 +161,3 @@ class FourierMPPI:
         weights = np.exp(-(costs - cost_min) / self.config.temperature)
         weights /= weights.sum()
         return weights, cost_min
-
-    def planned_inputs(self) -> np.ndarray:
-        """The current mean's input sequence, (H, 3): delta, throttle, brake (after saturation)."""
-        delta = np.clip(self.mean[0] @ self.basis, -STEER_LIMIT, STEER_LIMIT)
-        throttle, brake = split_throttle_brake(self.mean[1] @ self.basis)
-        return np.stack([delta, throttle, brake], axis=1)

@@ -8,13 +8,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from agentic_mpc.primitives import Circle
 from agentic_mpc.world.observation import Observation
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 TIMING_COLUMNS = ("solve_ms", "step_ms", "controller_ms_median", "controller_ms_p99", "wall_s")
 """Wall-clock columns: the only ones a seed cannot fix (every other column is reproducible)."""
@@ -82,6 +84,8 @@ def summarise(
     agent_tool_calls: int,
 ) -> dict[str, Any]:
     """One row of ``summary.csv`` (without the identifying columns)."""
+    import pandas as pd
+
     def finite_or_nan(value: float) -> float:
         return round(value, 4) if math.isfinite(value) else float("nan")
 

@@ -18,13 +18,33 @@ from __future__ import annotations
 
 import math
 import threading
-import xml.sax
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import NamedTuple
 
 import libsumo
 from libsumo import constants as tc
+
+from agentic_mpc.sumo.records import (
+    CollisionRecord,
+    SumoError,
+    VehicleInfo,
+    VehicleState,
+    centre_to_front,
+    check_net_file,
+    front_to_centre,
+)
+
+__all__ = [
+    "CollisionRecord",
+    "SumoAlreadyRunningError",
+    "SumoBridge",
+    "SumoError",
+    "VehicleInfo",
+    "VehicleState",
+    "centre_to_front",
+    "check_net_file",
+    "front_to_centre",
+]
 
 _LIBSUMO_ERRORS = (libsumo.TraCIException, libsumo.FatalTraCIError)
 
@@ -42,91 +62,8 @@ _active_lock = threading.Lock()
 _active: SumoBridge | None = None
 
 
-class SumoError(RuntimeError):
-    """SUMO refused to start, rejected a command, or failed during a run."""
-
-
 class SumoAlreadyRunningError(SumoError):
     """A second simulation in one process: libsumo would silently replace the first."""
-
-
-class VehicleState(NamedTuple):
-    """One vehicle at one step, in our conventions (centre position, heading in rad from +x, CCW)."""
-
-    id: str
-    x_m: float
-    y_m: float
-    heading_rad: float
-    speed_mps: float
-    lane_id: str
-    """'' when SUMO has the vehicle off every lane (an externally moved vehicle off the road)."""
-    lane_index: int
-    lane_pos_m: float
-    """SUMO's lane position of the FRONT bumper (nominal lane length units)."""
-    lateral_offset_m: float
-    """Offset of the centre from the lane centre (non-zero only with the sublane model or moveToXY)."""
-
-
-class VehicleInfo(NamedTuple):
-    """What does not change while a vehicle drives: read once per vehicle."""
-
-    type_id: str
-    vclass: str
-    length_m: float
-    width_m: float
-
-
-class CollisionRecord(NamedTuple):
-    """A collision as SUMO reports it (``simulation.getCollisions``)."""
-
-    collider: str
-    victim: str
-    collider_type: str
-    victim_type: str
-    collider_speed_mps: float
-    victim_speed_mps: float
-    kind: str
-    """SUMO's collision type: 'collision', 'frontal', 'junction', 'sharedLane', ..."""
-    lane_id: str
-    pos_m: float
-
-
-def centre_to_front(x_m: float, y_m: float, phi_rad: float, length_m: float) -> tuple[float, float, float]:
-    """Our centre pose -> SUMO's front-bumper position and navigational angle in degrees."""
-    half = 0.5 * length_m
-    return x_m + half * math.cos(phi_rad), y_m + half * math.sin(phi_rad), 90.0 - math.degrees(phi_rad)
-
-
-def front_to_centre(
-    x_front_m: float, y_front_m: float, angle_deg: float, length_m: float
-) -> tuple[float, float, float]:
-    """SUMO's front-bumper position and navigational angle -> our centre pose (phi wrapped to [-pi, pi))."""
-    phi = math.radians(90.0 - angle_deg)
-    phi = (phi + math.pi) % (2.0 * math.pi) - math.pi
-    half = 0.5 * length_m
-    return x_front_m - half * math.cos(phi), y_front_m - half * math.sin(phi), phi
-
-
-def check_net_file(path: Path) -> None:
-    """Raise SumoError unless ``path`` is a well-formed XML file whose root is <net>.
-
-    libsumo does not report a malformed net: it crashes the process (measured with SUMO 1.28).
-    """
-    if not path.is_file():
-        raise SumoError(f"network file not found: {path}")
-
-    class Root(xml.sax.ContentHandler):
-        seen = False
-
-        def startElement(self, name: str, attrs: object) -> None:  # noqa: N802 (SAX API)
-            if not self.seen and name != "net":
-                raise SumoError(f"{path} is not a SUMO network: its root element is <{name}>, not <net>")
-            self.seen = True
-
-    try:
-        xml.sax.parse(str(path), Root())
-    except xml.sax.SAXParseException as error:
-        raise SumoError(f"malformed network file {path}: {error}") from error
 
 
 class SumoBridge:
@@ -560,21 +497,11 @@ class SumoBridge:
     def min_gap_m(self, vehicle_id: str) -> float:
         return libsumo.vehicle.getMinGap(vehicle_id)
 
-    def parameter(self, vehicle_id: str, key: str) -> str:
-        """A vehicle's generic parameter, e.g. 'rescueLane' set near an ambulance with a blue light."""
-        self._require_running()
-        return libsumo.vehicle.getParameter(vehicle_id, key)
-
     def convert_2d(self, edge_id: str, pos_m: float, lane_index: int = 0) -> tuple[float, float]:
         """SUMO's own (x, y) of a lane position (``simulation.convert2D``)."""
         self._require_running()
         x, y = libsumo.simulation.convert2D(edge_id, pos_m, lane_index)
         return x, y
-
-    def distance_road(self, edge_a: str, pos_a: float, edge_b: str, pos_b: float) -> float:
-        """SUMO's driving distance between two road positions (edge, lane position)."""
-        self._require_running()
-        return libsumo.simulation.getDistanceRoad(edge_a, pos_a, edge_b, pos_b, isDriving=True)
 
     def time_loss_s(self, vehicle_id: str) -> float:
         """SUMO's time loss of a vehicle so far: its travel time minus the time at its ideal speed."""

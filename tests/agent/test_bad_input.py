@@ -42,21 +42,21 @@ class ScriptedBackend:
         (42, "a message must be text, got int"),
     ],
 )
-def test_rejected_messages_never_become_a_step(world, server, tmp_path, caplog, message, error):
+def test_rejected_messages_never_become_a_step(loop, server, tmp_path, caplog, message, error):
     config = AgentConfig(transcript_path=tmp_path / "t.jsonl")
     with caplog.at_level(logging.WARNING, logger="agentic_mpc.agent"), Agent(RulesBackend(), server, config) as agent:
         report = agent.deliver(message).result(5)
-        world.step()
+        loop.step()
     assert report.ended == "rejected" and report.errors == [error]
     assert len(agent.history) == 1  # only the system message
     (record,) = [json.loads(line) for line in (tmp_path / "t.jsonl").read_text().splitlines()
                  if json.loads(line)["event"] == "rejected_input"]
     assert record["error"] == error and len(record["preview"]) <= 200
     assert any(error in r.getMessage() for r in caplog.records)
-    assert world.slot.version == 0 and world.time_s > 0
+    assert loop.slot.version == 0 and loop.world.time_s > 0
 
 
-def test_nan_speeds_and_wrong_types_from_a_backend_are_refused_before_the_server(world, server, caplog):
+def test_nan_speeds_and_wrong_types_from_a_backend_are_refused_before_the_server(loop, server, caplog):
     replies = [
         BackendReply("", (ToolCall("1", "set_reference_speed", {"v_ref": math.nan}, "{}"),)),
         BackendReply("", (ToolCall("2", "set_reference_speed", {"v_ref": math.inf}, "{}"),)),
@@ -73,7 +73,7 @@ def test_nan_speeds_and_wrong_types_from_a_backend_are_refused_before_the_server
     assert "v_ref is not a finite number" in errors[0] and "v_ref is not a finite number" in errors[1]
     assert "is not of type 'number'" in errors[2]
     assert "unknown tool 'teleport'" in errors[3]
-    assert report.ended == "idle" and world.slot.version == 0
+    assert report.ended == "idle" and loop.slot.version == 0
     assert sum("refused" in r.getMessage() for r in caplog.records) == 4
     results = agent.transcript.events("tool_result")
     assert [r["is_error"] for r in results] == [True] * 4
@@ -81,7 +81,7 @@ def test_nan_speeds_and_wrong_types_from_a_backend_are_refused_before_the_server
     json.dumps(agent.transcript.records, allow_nan=False)
 
 
-def test_a_crashing_backend_is_an_error_not_a_dead_agent(world, server):
+def test_a_crashing_backend_is_an_error_not_a_dead_agent(loop, server):
     replies = [RuntimeError("segfault in the tokenizer")] * 3 + [
         BackendReply("", (ToolCall.of("1", "run_right_lane", {"v_ref": 10}),)),
         BackendReply("done"),
@@ -95,17 +95,17 @@ def test_a_crashing_backend_is_an_error_not_a_dead_agent(world, server):
     assert len(agent.transcript.events("backend_error")) == 3
 
 
-def test_too_many_calls_in_one_answer_are_cut(world, server):
+def test_too_many_calls_in_one_answer_are_cut(loop, server):
     many = tuple(ToolCall.of(str(i), "set_reference_speed", {"v_ref": i}) for i in range(12))
     config = AgentConfig(max_tool_calls_per_round=8)
     with Agent(ScriptedBackend([BackendReply("", many)]), server, config) as agent:
         report = agent.deliver("flood").result(10)
     assert len(report.applied_calls) == 8
     assert all("too many tool calls" in c["error"] for c in report.tool_calls[8:])
-    assert world.slot.current.get("path_tracking").v_ref_mps == 7.0
+    assert loop.slot.current.get("path_tracking").v_ref_mps == 7.0
 
 
-def test_lockstep_needs_a_sim_time(world, server):
+def test_lockstep_needs_a_sim_time(loop, server):
     with Agent(RulesBackend(), server, AgentConfig(timing="lockstep")) as agent:
         with pytest.raises(ValueError, match="sim time"):
             agent.deliver("go 10 m/s")

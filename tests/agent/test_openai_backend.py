@@ -18,13 +18,13 @@ def backend(llm: ScriptedLLM, **options) -> OpenAIBackend:
     return OpenAIBackend(OpenAIConfig(base_url=llm.base_url, model="granite-test", api_key_env=None, **options))
 
 
-def test_a_well_behaved_model_gives_validated_calls_and_sees_their_results(world, server):
+def test_a_well_behaved_model_gives_validated_calls_and_sees_their_results(loop, server):
     script = [calls(tool_call("run_left_lane", {"v_ref": 0}, "c1"), content="Pulling over."), text("Done.")]
     with ScriptedLLM(script) as llm, Agent(backend(llm), server) as agent:
         report = agent.deliver(PAPER_2A).result(30)
     assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
     assert report.text == "Done." and report.ended == "idle"
-    assert world.slot.current.get("path_tracking").lane == "left"
+    assert loop.slot.current.get("path_tracking").lane == "left"
     first, second = llm.requests
     assert first["model"] == "granite-test" and first["tool_choice"] == "auto"
     functions = {t["function"]["name"]: t["function"] for t in first["tools"]}
@@ -57,7 +57,7 @@ MALFORMED = [
 ]
 
 
-def test_every_malformed_answer_becomes_a_tool_error_for_the_model_and_changes_nothing(world, server):
+def test_every_malformed_answer_becomes_a_tool_error_for_the_model_and_changes_nothing(loop, server):
     script = [calls(call) for call, _ in MALFORMED]
     script += [calls(tool_call("run_left_lane", {"v_ref": 0})), text("Done at last.")]
     config = AgentConfig(max_rounds_per_step=len(script) + 1, max_consecutive_errors=len(MALFORMED) + 1)
@@ -65,7 +65,7 @@ def test_every_malformed_answer_becomes_a_tool_error_for_the_model_and_changes_n
         report = agent.deliver(PAPER_2A).result(60)
     assert report.ended == "idle" and report.text == "Done at last."
     assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
-    assert world.slot.version == 1  # only the valid call reached the controller
+    assert loop.slot.version == 1  # only the valid call reached the controller
     errors = [c["error"] for c in report.tool_calls if not c["ok"]]
     for (_, expected), error in zip(MALFORMED, errors, strict=True):
         assert expected in error
@@ -84,13 +84,13 @@ def test_every_malformed_answer_becomes_a_tool_error_for_the_model_and_changes_n
     assert len(transcript_errors) == len(MALFORMED)
 
 
-def test_a_model_that_never_gets_it_right_is_stopped_after_bounded_retries(world, server):
+def test_a_model_that_never_gets_it_right_is_stopped_after_bounded_retries(loop, server):
     script = [calls(tool_call("run_left_lane", {"v_ref": 1000}))] * 10
     config = AgentConfig(max_consecutive_errors=3)
     with ScriptedLLM(script) as llm, Agent(backend(llm), server, config) as agent:
         report = agent.deliver(PAPER_2A).result(30)
     assert report.ended == "gave_up" and len(llm.requests) == 3
-    assert world.slot.version == 0 and report.applied_calls == []
+    assert loop.slot.version == 0 and report.applied_calls == []
 
 
 @pytest.mark.parametrize(
@@ -104,7 +104,7 @@ def test_a_model_that_never_gets_it_right_is_stopped_after_bounded_retries(world
     ],
     ids=["http-500", "not-json", "no-choices", "message-not-object", "timeout"],
 )
-def test_transport_failures_are_retried(world, server, failure):
+def test_transport_failures_are_retried(loop, server, failure):
     script = [failure, calls(tool_call("set_preferred_steering_direction", {"direction": "left"})), text("ok")]
     config = AgentConfig(backend_attempts=3, retry_backoff_s=0.0)
     with ScriptedLLM(script) as llm, Agent(backend(llm, timeout_s=1.0), server, config) as agent:
@@ -114,7 +114,7 @@ def test_transport_failures_are_retried(world, server, failure):
     assert error["attempt"] == 1 and error["backend"] == "openai" and error["error"]
 
 
-def test_an_unreachable_backend_ends_the_step_with_a_clear_error_and_the_car_keeps_driving(world, server, tmp_path):
+def test_an_unreachable_backend_ends_the_step_with_a_clear_error_and_the_car_keeps_driving(loop, server, tmp_path):
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]  # nothing listens there once the socket is closed
@@ -123,18 +123,18 @@ def test_an_unreachable_backend_ends_the_step_with_a_clear_error_and_the_car_kee
     with Agent(dead, server, config) as agent:
         future = agent.deliver(PAPER_2A)
         for _ in range(25):  # the car drives on while the agent fails
-            world.step()
+            loop.step()
         report = future.result(30)
     assert report.ended == "backend_error" and "cannot reach" in report.errors[0]
     assert "after 2 attempts" in report.errors[0]
-    assert world.slot.version == 0 and world.time_s == pytest.approx(1.0)
-    assert world.state[3] > 14.0
+    assert loop.slot.version == 0 and loop.world.time_s == pytest.approx(1.0)
+    assert loop.world.ego_state[3] > 14.0
     lines = [json.loads(line) for line in (tmp_path / "t.jsonl").read_text().splitlines()]
     assert [r["attempt"] for r in lines if r["event"] == "backend_error"] == [1, 2]
     assert lines[-1]["event"] == "step_end" and lines[-1]["ended"] == "backend_error"
 
 
-def test_tool_calls_written_as_text_are_understood(world, server):
+def test_tool_calls_written_as_text_are_understood(loop, server):
     content = 'Sure.\n<tool_call>\n{"name": "run_left_lane", "arguments": {"v_ref": 0}}\n</tool_call>'
     with ScriptedLLM([{"role": "assistant", "content": content}, text("Done.")]) as llm:
         with Agent(backend(llm), server) as agent:
@@ -142,7 +142,7 @@ def test_tool_calls_written_as_text_are_understood(world, server):
     assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
 
 
-def test_the_api_key_is_sent_from_the_named_environment_variable(monkeypatch, world, server):
+def test_the_api_key_is_sent_from_the_named_environment_variable(monkeypatch, loop, server):
     monkeypatch.setenv("AGENTIC_TEST_KEY", "sk-test-123")
     with ScriptedLLM([text("hello")]) as llm:
         keyed = OpenAIBackend(OpenAIConfig(base_url=llm.base_url, api_key_env="AGENTIC_TEST_KEY"))
