@@ -1,4 +1,5 @@
-"""Co-simulation step timings: SUMO step + observation + surroundings + controller + model (on demand).
+"""Co-simulation step timings: the run loop over a SUMO world (SUMO step + observation + surroundings +
+controller + model), on demand.
 
     .venv/bin/python benchmarks/bench_cosim.py            # prints JSON, one object per case
 
@@ -9,8 +10,9 @@ Cases (each in a fresh process: libsumo runs one simulation per process):
 - ``road_20_sublane``: the same with SUMO's sublane model (0.4 m) for comparison;
 - ``curvy_traffic``: the curved road with the route file's background traffic after 90 s of warm-up.
 
-A step is timed as a whole (``StepRecord.step_ms``: observation, surroundings, controller, bicycle model,
-moveToXY, SUMO step); ``solve_ms`` is the controller's part. The first 50 steps (Numba cache load) are
+A step is timed as a whole (``RunLoop.step``'s ``step_ms``: surroundings, controller, bicycle model,
+moveToXY, SUMO step, observation); ``solve_ms`` is the controller's part. The specification is J1 on the
+ego's lane at 15 m/s; SUMO and the controller share the seed. The first 50 steps (Numba cache load) are
 not counted. BLAS is pinned to one thread.
 """
 
@@ -29,14 +31,17 @@ CASES = ("road_20", "road_20_sublane", "curvy_traffic")
 def run_case(case: str, steps: int, seed: int) -> dict:
     import numpy as np
 
-    from agentic_mpc.sumo.cosimulation import CoSimulation, EgoStart
+    from agentic_mpc.primitives import PathTracking, Specification
+    from agentic_mpc.run.loop import LoopSettings, RunLoop
+    from agentic_mpc.sumo.config import EgoStart
     from agentic_mpc.sumo.scenarios import curvy_traffic_config, scenario2_config, traffic_around
+    from agentic_mpc.sumo.world import SumoWorld
 
     warmup_steps = 50
     if case.startswith("road_20"):
         # The 800 m straight road: long enough that all 20 cars stay within sensing range for 22 s.
         ego_pos = 150.0
-        config = scenario2_config(roadblock=False, lefthand=False, seed=seed).replace(
+        config = scenario2_config(roadblock=False, lefthand=False).replace(
             ego=EgoStart(lane="center", pos_m=ego_pos, speed_mps=15.0),
             vehicles=traffic_around(20, ego_pos, seed=seed),
             sublane=case.endswith("sublane"),
@@ -44,21 +49,24 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         )
         steps = min(steps, 550 - warmup_steps)
     elif case == "curvy_traffic":
-        config = curvy_traffic_config(seed=seed)
+        config = curvy_traffic_config()
     else:
         raise ValueError(f"unknown case {case!r}; known: {CASES}")
     started = time.perf_counter()
-    with CoSimulation(config) as sim:
+    world = SumoWorld(config, seed=seed)
+    role, path = world.lane(config.ego.lane)
+    specification = Specification.of(PathTracking(path=path, lane=role, v_ref_mps=15.0))
+    with RunLoop(world, specification, LoopSettings(duration_s=float("inf"), stop_at_goal=False), seed=seed) as loop:
         setup_s = time.perf_counter() - started
         for _ in range(warmup_steps + steps):
-            sim.step()
-        records = sim.records[warmup_steps:]
-        summary = sim.summary()
-        total_vehicles = sim.bridge.vehicle_count() - 1
-    step_ms = np.array([r.step_ms for r in records])
-    solve_ms = np.array([r.solve_ms for r in records])
-    in_range = np.array([r.vehicles_in_range for r in records])
-    discs = np.array([r.discs for r in records])
+            loop.step()
+        records = loop.recorder.trajectory_rows[warmup_steps:]
+        ego_collisions = len(loop.recorder.metrics.ego_collision_pairs)
+        total_vehicles = world.bridge.vehicle_count() - 1
+    step_ms = np.array([r["step_ms"] for r in records])
+    solve_ms = np.array([r["solve_ms"] for r in records])
+    in_range = np.array([r["vehicles_in_range"] for r in records])
+    discs = np.array([r["discs"] for r in records])
     return {
         "case": case,
         "steps": len(records),
@@ -73,7 +81,7 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         "controller_median_ms": round(float(np.median(solve_ms)), 4),
         "rest_median_ms": round(float(np.median(step_ms - solve_ms)), 4),
         "setup_s": round(setup_s, 3),
-        "ego_collisions": summary.ego_collisions,
+        "ego_collisions": ego_collisions,
     }
 
 

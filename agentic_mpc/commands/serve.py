@@ -1,14 +1,14 @@
 """``agentic-mpc serve [SCENARIO]``: drive the car and expose its controller tools and observations as an MCP server.
 
-With a SCENARIO file (``--variant``, ``--seed``), its SUMO co-simulation runs in real time (``--time-scale``
-stretches it) in a background thread while the MCP server answers: the MCP host is the agent (the
-scenario's own message timeline and agent are not used) and its tool calls apply when they arrive. The
-run's files are written to ``--out`` when the simulation ends or the server stops.
+The scenario's run loop (its world: SUMO or plain Python) runs in real time (``--time-scale`` stretches it)
+in a background thread while the MCP server answers: the MCP host is the agent (the scenario's own message
+timeline and agent are not used) and its tool calls apply when they arrive. The run's files are written to
+``--out`` when the simulation ends or the server stops.
 
-Without a SCENARIO, a plain-Python world without SUMO (:mod:`agentic_mpc.plain_world`) runs: a straight
-3-lane road, lanes 3.5 m apart, speed limit 25 m/s, the paper's initial specification (center lane at
-15 m/s plus obstacle avoidance) with an obstacle 80 m ahead, a slower car in the right lane and an
-ambulance that comes up behind the ego at ``--ambulance-at-s``.
+Without a SCENARIO, ``scenarios/plain_world_traffic.yaml`` runs (no SUMO): a straight 3-lane road, lanes
+3.5 m apart, speed limit 25 m/s, the paper's initial specification (center lane at 15 m/s plus obstacle
+avoidance) with an obstacle 80 m ahead, a slower car in the right lane and an ambulance that comes up behind
+the ego at ``--ambulance-at-s``.
 
 Transports: ``--transport stdio`` (the default: for Claude Desktop, MCP Inspector and other hosts that
 start the server themselves; nothing but MCP goes to stdout, logs go to stderr) and ``--transport http``

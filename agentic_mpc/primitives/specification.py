@@ -12,7 +12,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from agentic_mpc.primitives.base import FloatArray, FusedArrays, FusedTerms, PreparedCost, Primitive, Rollouts, StepContext
+from agentic_mpc.primitives.base import (
+    FloatArray,
+    FusedArrays,
+    FusedTerms,
+    PreparedCost,
+    Primitive,
+    Rollouts,
+    StepContext,
+)
 from agentic_mpc.primitives.mandatory import Mandatory
 from agentic_mpc.primitives.path_tracking import PathTracking
 

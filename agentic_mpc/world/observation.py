@@ -20,10 +20,8 @@ exactly the keys ``time_s``, ``ego``, ``traffic``, ``emergency_vehicles``, ``obs
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
-
 
 Relation = Literal["ahead", "behind", "alongside"]
 
@@ -41,7 +39,7 @@ def _rounded(record: Any, digits: int = 3) -> dict[str, Any]:
 
 @dataclass(frozen=True, slots=True)
 class EgoObservation:
-    """The ego as SUMO reports it (position converted to the centre)."""
+    """The ego as the world sees it (SUMO: where our model put it, converted to the centre)."""
 
     id: str
     x_m: float
@@ -175,7 +173,7 @@ class CollisionObservation:
 
 @dataclass(frozen=True, slots=True)
 class Observation:
-    """One step's snapshot of the co-simulation, from the ego's point of view."""
+    """One step's snapshot of the world, from the ego's point of view."""
 
     time_s: float
     ego: EgoObservation

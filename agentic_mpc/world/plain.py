@@ -9,6 +9,7 @@ ego until the ego makes way). Obstacles are circles, given to J2 as they are.
 from __future__ import annotations
 
 import math
+
 import numpy as np
 
 from agentic_mpc import vehicle
@@ -17,7 +18,6 @@ from agentic_mpc.primitives import Circle, MovingDisc, Surroundings, TrackingRef
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
 from agentic_mpc.world.lanes import RoadLanes
-from agentic_mpc.world.plain_config import ROLES, LaneRole, PlainConfig, ScriptedVehicle
 from agentic_mpc.world.observation import (
     CollisionObservation,
     EgoObservation,
@@ -26,6 +26,7 @@ from agentic_mpc.world.observation import (
     ObstacleObservation,
     VehicleObservation,
 )
+from agentic_mpc.world.plain_config import ROLES, PlainConfig, ScriptedVehicle
 
 EGO_LENGTH_M, EGO_WIDTH_M = 4.5, 1.8
 EGO_RADIUS_M = 1.5

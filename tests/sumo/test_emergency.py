@@ -6,21 +6,23 @@ import numpy as np
 import pytest
 
 from agentic_mpc.primitives import PathTracking
-from agentic_mpc.sumo.cosimulation import CoSimulation, EgoStart
+from agentic_mpc.run.loop import RunLoop
+from agentic_mpc.sumo.config import EgoStart
 from agentic_mpc.sumo.scenarios import scenario2_config
+from tests.sumo.conftest import drive, sumo_loop
 
 MARK_S_M = 650.0
 """The ambulance's travel time is measured from its start to this along-road position."""
 
 
 def test_ambulance_is_observed_with_its_distance_and_closing_speed(report):
-    with CoSimulation(scenario2_config(lefthand=True)) as sim:
-        sumo = sim.bridge
-        ego_length = sim.ego_length_m
+    with sumo_loop(scenario2_config(lefthand=True)) as loop:
+        sumo = loop.world.bridge
+        ego_length = loop.world.ego_length_m
         worst_distance = worst_closing = 0.0
         for _ in range(100):
-            sim.step()
-            observation = sim.observation
+            loop.step()
+            observation = loop.world.observation
             (ambulance,) = observation.emergency_vehicles
             assert ambulance.vehicle.id == "ambulance" and ambulance.vehicle.vclass == "emergency"
             assert ambulance.relation == "behind" and ambulance.same_lane
@@ -36,12 +38,12 @@ def test_ambulance_is_observed_with_its_distance_and_closing_speed(report):
             worst_closing = max(worst_closing, abs(ambulance.closing_speed_mps - closing_truth))
             if ambulance.closing_speed_mps > 0:
                 assert ambulance.time_to_reach_s == pytest.approx(ambulance.distance_m / ambulance.closing_speed_mps)
-        first = sim.records[0]
+        first = loop.recorder.trajectory_rows[0]
     report(
         f"ambulance behind the ego: last distance {ambulance.distance_m:.2f} m,"
         f" closing {ambulance.closing_speed_mps:.2f}"
         f" m/s; worst error against SUMO over 100 steps: distance {worst_distance:.2e} m,"
-        f" closing speed {worst_closing:.2e} m/s (first step at t={first.time_s:.2f} s)"
+        f" closing speed {worst_closing:.2e} m/s (first step at t={first['time_s']:.2f} s)"
     )
     assert worst_distance < 0.05
     assert worst_closing < 0.05
@@ -52,18 +54,19 @@ def run_scenario2(lefthand: bool, yield_lane: str | None, resume: bool = False, 
     """Drive Scenario 2; ``yield_lane``: switch J1 to that lane with v_ref = 0 after ``yield_after_s`` (the
     paper's run_left_lane(0)); ``resume``: back to the centre lane at 15 m/s once the ambulance is 60 m ahead
     (the paper's run_center_lane(15)). Returns the ambulance's travel time to :data:`MARK_S_M` and more."""
-    with CoSimulation(scenario2_config(lefthand=lefthand, seed=seed)) as sim:
-        start = sim.time_s
-        ambulance_start_s = sim.observation.emergency_vehicles[0].vehicle.road_s_m
+    with sumo_loop(scenario2_config(lefthand=lefthand), seed=seed, stop_at_goal=False) as loop:
+        world = loop.world
+        start = world.time_s
+        ambulance_start_s = world.observation.emergency_vehicles[0].vehicle.road_s_m
         out: dict = {"relations": set(), "ambulance_min_speed": np.inf}
 
-        def on_step(sim: CoSimulation, record) -> bool:
-            t = record.time_s - start
-            if yield_lane and sim.slot.version == 0 and t >= yield_after_s:
-                path = sim.road.lane_path(yield_lane)
-                sim.slot.update(lambda spec: spec.attach(PathTracking(path=path, lane=yield_lane, v_ref_mps=0.0)))
+        def on_step(loop: RunLoop, outcome) -> bool:
+            t = outcome.observation.time_s - start
+            if yield_lane and loop.slot.version == 0 and t >= yield_after_s:
+                path = world.road.lane_path(yield_lane)
+                loop.slot.update(lambda spec: spec.attach(PathTracking(path=path, lane=yield_lane, v_ref_mps=0.0)))
                 out["yield_at_s"] = t
-            emergency = sim.observation.emergency_vehicles
+            emergency = world.observation.emergency_vehicles
             if emergency:
                 ambulance = emergency[0]
                 out["relations"].add(ambulance.relation)
@@ -71,22 +74,22 @@ def run_scenario2(lefthand: bool, yield_lane: str | None, resume: bool = False, 
                 if ambulance.vehicle.road_s_m >= MARK_S_M and "ambulance_time_s" not in out:
                     out["ambulance_time_s"] = t
                     out["relation_at_mark"] = ambulance.relation
-                if resume and sim.slot.version == 1 and ambulance.relation == "ahead" and ambulance.distance_m > 60.0:
-                    path = sim.road.lane_path("center")
-                    sim.slot.update(lambda spec: spec.attach(PathTracking(path=path, lane="center", v_ref_mps=15.0)))
+                if resume and loop.slot.version == 1 and ambulance.relation == "ahead" and ambulance.distance_m > 60.0:
+                    path = world.road.lane_path("center")
+                    loop.slot.update(lambda spec: spec.attach(PathTracking(path=path, lane="center", v_ref_mps=15.0)))
                     out["resumed_at_s"] = t
             if "ambulance_time_s" in out and not resume:
                 return True
             return resume and "resumed_at_s" in out and t > out["resumed_at_s"] + 15.0
 
-        sim.run(duration_s=90.0, stop_at_goal=False, on_step=on_step)
-        ego = sim.observation.ego
+        collisions = drive(loop, 90.0, on_step=on_step)
+        ego = world.observation.ego
         out.update(
             ambulance_start_s=ambulance_start_s,
             ego_lane=ego.lane_role,
             ego_speed=ego.speed_mps,
-            stopped_for_s=sum(1 for r in sim.records if r.v_mps < 0.1) * 0.04,
-            collisions=list(sim.collisions),
+            stopped_for_s=sum(1 for r in loop.recorder.trajectory_rows if r["v_mps"] < 0.1) * 0.04,
+            collisions=collisions,
         )
     return out
 
@@ -96,14 +99,15 @@ def free_flow_time_s(lefthand: bool) -> float:
     config = scenario2_config(lefthand=lefthand, roadblock=False).replace(
         ego=EgoStart(lane="left", pos_m=720.0, speed_mps=15.0), goal_s_m=790.0
     )
-    with CoSimulation(config) as sim:
-        start = sim.time_s
+    with sumo_loop(config, stop_at_goal=False) as loop:
+        world = loop.world
+        start = world.time_s
 
-        def at_mark(sim: CoSimulation, record) -> bool:
-            return sim.observation.emergency_vehicles[0].vehicle.road_s_m >= MARK_S_M
+        def at_mark(loop: RunLoop, outcome) -> bool:
+            return world.observation.emergency_vehicles[0].vehicle.road_s_m >= MARK_S_M
 
-        sim.run(duration_s=60.0, stop_at_goal=False, on_step=at_mark)
-        return sim.time_s - start
+        drive(loop, 60.0, on_step=at_mark)
+        return world.time_s - start
 
 
 @pytest.mark.parametrize("lefthand", [True, False], ids=["left-hand (paper)", "right-hand"])

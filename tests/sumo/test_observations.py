@@ -7,19 +7,22 @@ import math
 
 import pytest
 
-from agentic_mpc.sumo.cosimulation import CoSimConfig, CoSimulation, EgoStart, StaticObstacle, VehicleSpawn
-from agentic_mpc.sumo.observations import JSON_KEYS, Observation, _boxes_overlap
+from agentic_mpc.sumo.config import EgoStart, StaticObstacle, SumoConfig, VehicleSpawn
 from agentic_mpc.sumo.scenarios import net_files, scenario2_config
+from agentic_mpc.sumo.world import SumoWorld
+from agentic_mpc.world.observation import JSON_KEYS, Observation
+from agentic_mpc.world.observation import boxes_overlap as _boxes_overlap
+from tests.sumo.conftest import drive, sumo_loop
 
 NET, ROUTES = net_files("straight")
 
 
 def test_to_json_has_exactly_the_agreed_keys_and_is_json():
-    with CoSimulation(scenario2_config(lefthand=True).replace(
+    with sumo_loop(scenario2_config(lefthand=True).replace(
         obstacles=(StaticObstacle(id="broken_down", lane="right", pos_m=400.0, in_j2=False),)
-    )) as sim:
-        sim.run(duration_s=0.2, stop_at_goal=False)
-        data = sim.observation.to_json()
+    ), stop_at_goal=False) as loop:
+        drive(loop, 0.2)
+        data = loop.world.observation.to_json()
     assert tuple(data) == JSON_KEYS == ("time_s", "ego", "traffic", "emergency_vehicles", "obstacles", "collisions")
     text = json.dumps(data)  # plain JSON types only
     assert json.loads(text) == data
@@ -39,13 +42,13 @@ def test_relations_lanes_and_gaps_of_surrounding_vehicles():
         VehicleSpawn(id="alongside_left", lane="left", pos_m=101.0, speed_mps=15.0),
         VehicleSpawn(id="behind_right", lane="right", pos_m=60.0, speed_mps=15.0),
     )
-    config = CoSimConfig(net_file=NET, route_files=(ROUTES,), road="straight", vehicles=vehicles,
-                         ego=EgoStart(lane="center", pos_m=100.0, speed_mps=15.0))
-    with CoSimulation(config) as sim:
-        observation = sim.observation
+    config = SumoConfig(net_file=NET, route_files=(ROUTES,), road="straight", vehicles=vehicles,
+                        ego=EgoStart(lane="center", pos_m=100.0, speed_mps=15.0))
+    with SumoWorld(config) as world:
+        observation = world.observation
         ego = observation.ego
         ahead, left, right = (observation.vehicle(i) for i in ("ahead_same", "alongside_left", "behind_right"))
-        front = {i: sim.bridge.vehicle_state(i).lane_pos_m for i in ("ego", "ahead_same", "behind_right")}
+        front = {i: world.bridge.vehicle_state(i).lane_pos_m for i in ("ego", "ahead_same", "behind_right")}
     assert (ahead.relation, ahead.relative_lane, ahead.lane_role) == ("ahead", 0, "center")
     # Straight road: bumper gaps from SUMO's front-bumper lane positions (car 4.5 m, ego 5.2 m long).
     assert ahead.gap_m == pytest.approx(front["ahead_same"] - 4.5 - front["ego"], abs=1e-6)
@@ -74,8 +77,8 @@ def test_geometric_overlap_check():
 
 
 def test_observation_is_frozen():
-    with CoSimulation(CoSimConfig(net_file=NET, route_files=(ROUTES,), road="straight")) as sim:
-        observation: Observation = sim.observation
+    with SumoWorld(SumoConfig(net_file=NET, route_files=(ROUTES,), road="straight")) as world:
+        observation: Observation = world.observation
     with pytest.raises(AttributeError):
         observation.time_s = 1.0  # type: ignore[misc]
     with pytest.raises(AttributeError):

@@ -5,9 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agentic_mpc.sumo.cosimulation import CoSimConfig, CoSimulation, EgoStart, VehicleSpawn
+from agentic_mpc.controller import MPPIConfig
+from agentic_mpc.sumo.config import EgoStart, SumoConfig, SurroundingsConfig, VehicleSpawn
 from agentic_mpc.sumo.scenarios import net_files
-from agentic_mpc.sumo.surroundings import SurroundingsConfig, disc_cover
+from agentic_mpc.sumo.surroundings import SurroundingsBuilder, disc_cover
+from agentic_mpc.sumo.world import SumoWorld
+from tests.sumo.conftest import drive, sumo_loop
 
 
 @pytest.mark.parametrize(("length", "width", "min_half_width"), [(4.5, 1.8, 0.0), (12.0, 2.5, 0.0), (4.5, 1.8, 2.15)])
@@ -31,10 +34,16 @@ def test_discs_cover_the_region_the_ego_centre_must_avoid(length, width, min_hal
 NET, ROUTES = net_files("curvy")
 
 
-def curvy_config(**update: object) -> CoSimConfig:
-    base = CoSimConfig(net_file=NET, route_files=(ROUTES,), road="curvy",
+def curvy_config(**update: object) -> SumoConfig:
+    base = SumoConfig(net_file=NET, route_files=(ROUTES,), road="curvy",
                        ego=EgoStart(lane="center", pos_m=220.0, speed_mps=15.0))
     return base.replace(**update)
+
+
+def builder_of(world: SumoWorld) -> SurroundingsBuilder:
+    """The surroundings builder the run loop's controller gets (the default MPPI horizon)."""
+    return SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
+                               world.config.surroundings)
 
 
 def test_constant_speed_prediction_matches_sumo_on_a_curve():
@@ -42,15 +51,15 @@ def test_constant_speed_prediction_matches_sumo_on_a_curve():
     car = VehicleSpawn(id="steady", lane="left", pos_m=225.0, speed_mps=15.0, max_speed_mps=15.0,
                        imperfection=0.0, lane_changes=False)
     # Route-file traffic starts at the road's start, far behind: only the steady car is near the ego.
-    with CoSimulation(curvy_config(vehicles=(car,))) as sim:
-        sim.run(duration_s=2.0, stop_at_goal=False)  # let it settle at exactly 15 m/s
-        observation = sim.observation
+    with sumo_loop(curvy_config(vehicles=(car,)), stop_at_goal=False) as loop:
+        drive(loop, 2.0)  # let it settle at exactly 15 m/s
+        observation = loop.world.observation
         steady = observation.vehicle("steady")
         assert steady.speed_mps == pytest.approx(15.0)
-        builder = sim._surroundings
+        builder = builder_of(loop.world)
         points, _ = builder.road.lane_tables[steady.lane_index].at(steady.lane_s_m + 15.0 * builder._steps)
-        sim.run(duration_s=1.0, stop_at_goal=False)  # 25 steps
-        later = sim.observation.vehicle("steady")
+        drive(loop, 1.0)  # 25 steps
+        later = loop.world.observation.vehicle("steady")
     assert np.hypot(points[24, 0] - later.x_m, points[24, 1] - later.y_m) < 0.05
 
 
@@ -60,8 +69,8 @@ def test_followers_in_lane_are_left_out_and_neighbours_are_in():
         VehicleSpawn(id="neighbour", lane="right", pos_m=222.0, speed_mps=15.0),
         VehicleSpawn(id="far", lane="left", pos_m=330.0, speed_mps=15.0),
     )
-    with CoSimulation(curvy_config(vehicles=vehicles)) as sim:
-        builder, observation = sim._surroundings, sim.observation
+    with SumoWorld(curvy_config(vehicles=vehicles)) as world:
+        builder, observation = builder_of(world), world.observation
         relevant = {v.id for v in observation.traffic if builder.relevant(v, observation.ego.speed_mps)}
     assert "neighbour" in relevant
     assert "follower" not in relevant  # keeping its distance is the follower's job
@@ -70,8 +79,8 @@ def test_followers_in_lane_are_left_out_and_neighbours_are_in():
 
 def test_a_leader_gets_a_following_distance_that_never_covers_the_ego():
     leader = VehicleSpawn(id="leader", lane="center", pos_m=250.0, speed_mps=10.0, max_speed_mps=10.0)
-    with CoSimulation(curvy_config(vehicles=(leader,))) as sim:
-        builder, observation = sim._surroundings, sim.observation
+    with SumoWorld(curvy_config(vehicles=(leader,))) as world:
+        builder, observation = builder_of(world), world.observation
         ego = observation.ego
         discs = builder.discs(observation, target_lane=1)
         first = np.array([d.centres[0] for d in discs])
@@ -89,9 +98,9 @@ def test_a_leader_gets_a_following_distance_that_never_covers_the_ego():
 
 def test_edges_road_and_corridor():
     config = curvy_config(surroundings=SurroundingsConfig(edges="corridor"))
-    with CoSimulation(config) as sim:
-        builder, observation = sim._surroundings, sim.observation
-        road = sim.road
+    with SumoWorld(config) as world:
+        builder, observation = builder_of(world), world.observation
+        road = world.road
         # Road edges: half the road width either side of the centre line.
         left, right = builder.edges(observation.ego.road_s_m, 15.0)
         for edge, sign in ((left, 1.0), (right, -1.0)):
@@ -101,6 +110,9 @@ def test_edges_road_and_corridor():
         assert builder.corridor(observation, target_lane=1) == pytest.approx((1.75, -1.75), abs=0.01)
         assert builder.corridor(observation, target_lane=2) == pytest.approx((5.25, -1.75), abs=0.01)  # 2 = left
         assert builder.corridor(observation, target_lane=None) == pytest.approx((5.25, -5.25), abs=0.01)
-        surroundings = builder.build(observation, sim.state, target_lane=1)
+        surroundings = builder.build(observation, world.ego_state, target_lane=1)
         lateral = road.lateral_from_reference(*surroundings.road_left_edge.points.T)
         assert lateral == pytest.approx(np.full(len(lateral), 1.75), abs=0.02)
+        # The world builds the same for the controller when J1 tracks the centre lane (index 1).
+        through_world = world.surroundings(MPPIConfig().horizon, world.lane("center")[1])
+        assert through_world.road_left_edge.points == pytest.approx(surroundings.road_left_edge.points)
