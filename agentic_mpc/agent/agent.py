@@ -43,9 +43,8 @@ import json
 import logging
 import math
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -54,6 +53,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
 from agentic_mpc.agent.messages import Message, MessageHistory, Source, ToolCall
+from agentic_mpc.agent.prompt import system_prompt
+from agentic_mpc.agent.report import StepReport
 from agentic_mpc.agent.transcript import Transcript
 from agentic_mpc.mcp.protocol import APPLY_AT_META_KEY, INITIAL_SPECIFICATION_URI, validate_arguments
 
@@ -83,69 +84,6 @@ class AgentConfig(BaseModel):
 
 class AgentError(RuntimeError):
     """The agent could not start (no MCP server, no tools)."""
-
-
-@dataclass
-class StepReport:
-    """What one agent step did."""
-
-    message: str
-    source: Source
-    sim_time_s: float | None
-    first_tau: int = -1
-    last_tau: int = -1
-    tool_calls: list[dict[str, Any]] = field(default_factory=list)
-    """Each call: tool, arguments, ok, result or error, apply_at_s."""
-    text: str = ""
-    """The agent's last text."""
-    errors: list[str] = field(default_factory=list)
-    ended: Literal["idle", "backend_error", "gave_up", "round_limit", "rejected", "closed"] = "idle"
-
-    @property
-    def applied_calls(self) -> list[dict[str, Any]]:
-        """The calls the server accepted, as {"tool", "arguments"}."""
-        return [{"tool": c["tool"], "arguments": c["arguments"]} for c in self.tool_calls if c["ok"]]
-
-
-def _describe_primitive(primitive: dict[str, Any]) -> str:
-    params = []
-    for key, value in primitive.items():
-        if key in ("kind", "symbol"):
-            continue
-        if isinstance(value, list):
-            value = f"{len(value)} item(s)"
-        params.append(f"{key}={value}")
-    return f"- {primitive.get('kind')} ({primitive.get('symbol')}): {', '.join(params)}"
-
-
-def _describe_tool(tool: ToolSpec) -> str:
-    args = []
-    for name, prop in tool.input_schema.get("properties", {}).items():
-        kind = prop.get("type", "value")
-        if "enum" in prop:
-            kind = " | ".join(map(repr, prop["enum"]))
-        elif "minimum" in prop or "maximum" in prop:
-            kind = f"{kind} in [{prop.get('minimum', '-inf')}, {prop.get('maximum', 'inf')}]"
-        args.append(f"{name}: {kind}")
-    return f"- {tool.name}({', '.join(args)}): {tool.description}"
-
-
-def system_prompt(initial: dict[str, Any] | None, tools: Sequence[ToolSpec], extra: str = "") -> str:
-    """The system message: role, (A) the initially attached primitives, (B) the tools (paper, "Agent Setup")."""
-    lines = [
-        "You are the driving agent of an autonomous car. A model predictive controller drives the car; its "
-        "control specification is a sum of primitive objective functions. You change the specification only "
-        "by calling the tools below. Call a tool only when the specification must change; otherwise answer "
-        "briefly without calling any tool. Speeds are in m/s (1 m/s = 3.6 km/h; 1 mph = 0.447 m/s).",
-        "",
-        "Initially attached primitives (the original specification; restore it when a temporary situation is over):",
-    ]
-    attached = (initial or {}).get("attached", [])
-    lines += [_describe_primitive(p) for p in attached if p.get("kind") != "mandatory"] or ["- (unknown)"]
-    lines += ["", "Available tools:"] + [_describe_tool(t) for t in tools]
-    if extra:
-        lines += ["", extra]
-    return "\n".join(lines)
 
 
 def _root_cause(error: BaseException) -> BaseException:

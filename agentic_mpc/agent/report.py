@@ -1,0 +1,30 @@
+"""What one agent step did: the message that started it, the tool calls, the last text, how it ended."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from agentic_mpc.agent.messages import Source
+
+
+@dataclass
+class StepReport:
+    """What one agent step did."""
+
+    message: str
+    source: Source
+    sim_time_s: float | None
+    first_tau: int = -1
+    last_tau: int = -1
+    tool_calls: list[dict[str, Any]] = field(default_factory=list)
+    """Each call: tool, arguments, ok, result or error, apply_at_s."""
+    text: str = ""
+    """The agent's last text."""
+    errors: list[str] = field(default_factory=list)
+    ended: Literal["idle", "backend_error", "gave_up", "round_limit", "rejected", "closed"] = "idle"
+
+    @property
+    def applied_calls(self) -> list[dict[str, Any]]:
+        """The calls the server accepted, as {"tool", "arguments"}."""
+        return [{"tool": c["tool"], "arguments": c["arguments"]} for c in self.tool_calls if c["ok"]]
