@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     print(summary.to_string())
     lanes = loop.world.lanes().lanes
     plots.birds_eye(
-        trajectories, [lanes["center"], lanes["left"]], [obstacle], args.out / "trajectories.png",
+        trajectories, list(lanes.values()), [obstacle], args.out / "trajectories.png",
         title="Scenario 1: grey no message, red 'avoid from the right', blue 'from the left'",
         x_range_m=(0, 110),
     )
