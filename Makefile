@@ -12,6 +12,9 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test,dask]"
+	# the replay's browser test drives Debian's chromium (never `playwright install`); root with apt-get only
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium) || true; fi
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -36,3 +36,10 @@ def test_demo_prints_the_table_and_writes_csv_and_figures(tmp_path):
     assert (table.loc[table.variant == "message_right", "obstacle_side"] == "right").all()
     assert (tmp_path / "trajectories.png").stat().st_size > 10_000
     assert (tmp_path / "timeseries.png").stat().st_size > 10_000
+
+
+def test_replay_is_a_command_and_batch_replay_refuses_a_custom_runner(tmp_path):
+    assert "replay" in agentic_mpc("--help").stdout
+    result = agentic_mpc("batch", "scenarios/paper_steering_preference_plain.yaml", "--trials", "1", "--replay",
+                         "--runner", "tests.batch.fake_runner:run", "--out", str(tmp_path))
+    assert result.returncode == 2 and "--replay" in result.stderr

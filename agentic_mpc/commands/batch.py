@@ -5,6 +5,7 @@ run's metrics, scenario_sha256) and each run's files under ``DIR/runs/<scenario>
 Run it again with the same arguments to resume: finished runs are skipped, failed and crashed ones are
 retried, and runs of a scenario file that has changed since are redone. With ``--executor dask`` the
 workers need agentic-mpc and the scenario files (same paths); the run files come back to DIR.
+Each run writes its animated replay (replay.html) only with ``--replay``.
 Exit status: 0 all runs ok, 1 some run failed or crashed, 2 bad input (nothing ran), 130 interrupted.
 """
 
@@ -47,6 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--runner", metavar="MODULE:FUNCTION", default=None,
                         help="run function f(scenario_file, variant, seed, out_dir) -> summary row "
                              "(default: agentic_mpc.scenario.runner:run_to_directory)")
+    parser.add_argument("--replay", action="store_true",
+                        help="also write each run's replay.html (agentic-mpc replay); with the default run function")
     parser.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar on stderr")
     parser.set_defaults(handler=run)
 
@@ -65,9 +68,18 @@ def _print_variant_table(summary_path: Path) -> None:
         print(table.to_string())
 
 
+REPLAY_RUNNER = "agentic_mpc.scenario.runner:run_to_directory_with_replay"
+
+
 def run(args: argparse.Namespace) -> int:
     from agentic_mpc.batch import BatchInputError, BatchSpec, default_workers, run_batch
 
+    runner = args.runner
+    if args.replay:
+        if runner is not None and runner != REPLAY_RUNNER:
+            print("agentic-mpc batch: --replay works with the default run function, not --runner", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        runner = REPLAY_RUNNER
     try:
         spec = BatchSpec(
             files=tuple(args.files), trials=args.trials, first_seed=args.first_seed,
@@ -75,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers or default_workers(), out_dir=args.out, executor=args.executor,
             scheduler=args.scheduler,
         )
-        result = run_batch(spec, runner=args.runner, progress=args.progress)
+        result = run_batch(spec, runner=runner, progress=args.progress)
     except BatchInputError as error:
         print("agentic-mpc batch: nothing was run:\n" + "\n".join(f"  {p}" for p in error.problems), file=sys.stderr)
         return EXIT_BAD_INPUT

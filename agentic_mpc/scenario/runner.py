@@ -2,7 +2,8 @@
 the run's files.
 
 :func:`run_scenario` writes ``trajectory.csv``, ``events.csv``, ``traffic.csv``, ``summary.csv``,
-``obstacles.csv``, ``transcript.jsonl``, ``scenario.json`` and ``trajectory.png`` to the output directory;
+``obstacles.csv``, ``transcript.jsonl``, ``scenario.json``, ``trajectory.png`` and ``replay.html`` (the animated
+replay, :mod:`agentic_mpc.replay`) to the output directory;
 what was recorded is written even when the run fails, and the error is raised afterwards.
 """
 
@@ -137,6 +138,13 @@ class ScenarioRun:
                            title=f"{scenario.name} / {scenario.variant} / seed {scenario.seed}")
             except Exception:  # a figure must never cost the results
                 logger.exception("could not draw %s", self.out_dir / "trajectory.png")
+        if scenario.outputs.replay and loop.recorder.trajectory_rows:
+            from agentic_mpc.replay import write_replay
+
+            try:
+                write_replay(self.out_dir)
+            except Exception:  # nor must the replay
+                logger.exception("could not write %s", self.out_dir / "replay.html")
         return summary
 
 
@@ -145,10 +153,21 @@ def run_scenario(scenario: Scenario, out_dir: Path) -> dict[str, Any]:
     return ScenarioRun(scenario, out_dir).run()
 
 
+def _with_replay(scenario: Scenario, replay: bool) -> Scenario:
+    return scenario.model_copy(update={"outputs": scenario.outputs.model_copy(update={"replay": replay})})
+
+
 def run_to_directory(scenario_file: Path, variant: str, seed: int, out_dir: Path) -> dict[str, Any]:
-    """The batch runner's unit of work: load, pick the variant, set the seed, run."""
+    """The batch runner's unit of work: load, pick the variant, set the seed, run (no replay page: batches
+    stay fast; see :func:`run_to_directory_with_replay`)."""
     scenario = load_scenario(scenario_file).variant(variant).with_seed(seed)
-    return run_scenario(scenario, out_dir)
+    return run_scenario(_with_replay(scenario, False), out_dir)
+
+
+def run_to_directory_with_replay(scenario_file: Path, variant: str, seed: int, out_dir: Path) -> dict[str, Any]:
+    """:func:`run_to_directory` that also writes each run's ``replay.html`` (``agentic-mpc batch --replay``)."""
+    scenario = load_scenario(scenario_file).variant(variant).with_seed(seed)
+    return run_scenario(_with_replay(scenario, True), out_dir)
 
 
 def drive(scenario: Scenario) -> Any:

@@ -101,6 +101,7 @@ class Message(_Strict):
 class OutputSettings(_Strict):
     traffic_stride: int = Field(5, ge=1, description="write SUMO vehicles every this many steps")
     plot: bool = True
+    replay: bool = Field(True, description="write replay.html, the animated replay of the run")
 
 
 class Scenario(_Strict):
