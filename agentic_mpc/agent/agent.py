@@ -8,7 +8,8 @@ the agent can restore the original specification.
 
 The agent talks to the controller ONLY through the MCP server, with ``mcp.Client``: in-process by default
 (pass the ``MCPServer``, or any object with an ``mcp_server`` attribute holding one), or a server in another
-process (``StdioServerParameters``) or over HTTP (a URL). Of the MCP side it imports only the client contract,
+process (``StdioServerParameters``) or over HTTP (a URL; ``AgentConfig.bearer_token_env`` names the environment
+variable holding the server's bearer token, ``AgentConfig.headers`` adds any other header). Of the MCP side it imports only the client contract,
 :mod:`agentic_mpc.mcp.protocol`, never the server's implementation. It runs in its own thread with its own
 event loop: the control loop never waits for it.
 
@@ -52,6 +53,7 @@ from mcp import Client
 from pydantic import BaseModel, ConfigDict, Field
 
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
+from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target
 from agentic_mpc.agent.messages import Message, MessageHistory, Source, ToolCall
 from agentic_mpc.agent.prompt import system_prompt
 from agentic_mpc.agent.report import StepReport
@@ -80,6 +82,11 @@ class AgentConfig(BaseModel):
     lockstep_timeout_s: float = Field(600.0, gt=0)
     transcript_path: Path | None = None
     system_prompt_extra: str = ""
+    headers: dict[str, str] = Field(default_factory=dict, repr=False,
+                                    description="HTTP (a URL server): extra request headers, e.g. Authorization")
+    bearer_token_env: str | None = Field(
+        None, description="HTTP: the environment variable holding the server's bearer token (sent as "
+                          "'Authorization: Bearer ...'; read when the agent connects, never stored)")
 
 
 class AgentError(RuntimeError):
@@ -181,7 +188,8 @@ class Agent:
         self._loop = asyncio.get_running_loop()
         self._queue = asyncio.Queue()
         try:
-            async with Client(self.server, cache=None) as client:
+            target = mcp_target(self.server, self.config.headers, self.config.bearer_token_env)
+            async with Client(target, cache=None, client_info=CLIENT_INFO) as client:
                 self._client = client
                 await self._introduce(client)
                 self._ready.set()

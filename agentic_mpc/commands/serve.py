@@ -12,7 +12,11 @@ the ego at ``--ambulance-at-s``.
 
 Transports: ``--transport stdio`` (the default: for Claude Desktop, MCP Inspector and other hosts that
 start the server themselves; nothing but MCP goes to stdout, logs go to stderr) and ``--transport http``
-(streamable HTTP at ``http://HOST:PORT/mcp``). See :mod:`agentic_mpc.mcp.server` for the tools, resources
+(streamable HTTP at ``http://HOST:PORT/mcp``; see docs/serving.md). Over HTTP a request whose Host or Origin
+is not the server's own (or one given with ``--allow-host`` / ``--allow-origin``) is refused; a bearer token
+(``AGENTIC_MPC_TOKEN``, ``--token-file`` or ``--generate-token``, never on the command line) is required
+when one is configured, and always for a bind that is not loopback; tool calls are rate limited per client
+(``--rate-limit``). See :mod:`agentic_mpc.mcp.server` for the tools, resources
 and host configuration, e.g. Claude Desktop::
 
     {"mcpServers": {"agentic-mpc": {"command": "agentic-mpc", "args": ["serve", "--transport", "stdio"]}}}
@@ -27,6 +31,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 import threading
 from pathlib import Path
@@ -51,6 +56,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--transport", choices=("stdio", "http"), default="stdio")
     parser.add_argument("--host", default="127.0.0.1", help="http: interface to listen on")
     parser.add_argument("--port", type=int, default=8765, help="http: port (the endpoint is /mcp)")
+    parser.add_argument("--allow-host", action="append", default=[], metavar="HOST[:PORT]",
+                        help="http: also accept this Host header (repeatable; e.g. mybox.lan:8765)")
+    parser.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
+                        help="http: also accept this Origin header (repeatable; e.g. http://mybox.lan:8765)")
+    parser.add_argument("--token-file", type=Path, default=None,
+                        help="http: file holding the bearer token clients must send (else $AGENTIC_MPC_TOKEN)")
+    parser.add_argument("--generate-token", action="store_true",
+                        help="http: generate a bearer token and print it once to stderr")
+    parser.add_argument("--rate-limit", type=float, default=20.0, metavar="N",
+                        help="http: tool calls per second per client (bursts of 2N; default 20)")
     parser.add_argument("--time-scale", type=float, default=1.0,
                         help="wall seconds per simulated second (1 = real time, 2 = half speed)")
     parser.add_argument("--duration-s", type=float, default=None, help="stop the simulation after this sim time")
@@ -68,18 +83,80 @@ def run(args: argparse.Namespace) -> int:
     if args.time_scale <= 0:
         print("error: --time-scale must be positive", file=sys.stderr)
         return 2
-    return serve_scenario(args)
+    listening = None
+    if args.transport == "http":  # every refusal before the simulation starts and before listening
+        from agentic_mpc.mcp.http import BindError, bind_socket, check_bind
+
+        try:
+            args.token = _token(args)
+            if not (args.rate_limit > 0 and args.rate_limit != float("inf")):
+                raise BindError("--rate-limit must be a positive number")
+            check_bind(args.host, args.token)
+            listening = bind_socket(args.host, args.port)
+        except BindError as error:
+            print(f"error: {error}", file=sys.stderr)
+            return 2
+    elif args.token_file is not None or args.generate_token:
+        print("error: --token-file and --generate-token apply to --transport http", file=sys.stderr)
+        return 2
+    try:
+        return serve_scenario(args, listening)
+    finally:
+        if listening is not None:
+            listening.close()
 
 
-def _serve(server: object, args: argparse.Namespace) -> None:
+def _token(args: argparse.Namespace) -> str | None:
+    """The bearer token: from --token-file, $AGENTIC_MPC_TOKEN or generated (printed once); None without."""
+    import secrets
+
+    from agentic_mpc.mcp.http import TOKEN_ENV, BindError
+
+    from_env = os.environ.get(TOKEN_ENV, "").strip() or None
+    if sum(x is not None and x is not False for x in (args.token_file, from_env, args.generate_token or None)) > 1:
+        raise BindError(f"give the token one way: --token-file, ${TOKEN_ENV} or --generate-token")
+    if args.token_file is not None:
+        try:
+            token = args.token_file.read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError) as error:
+            raise BindError(f"cannot read the token file {args.token_file}: {error}") from None
+        if not token:
+            raise BindError(f"the token file {args.token_file} is empty")
+        if os.name == "posix" and args.token_file.stat().st_mode & 0o077:
+            print(f"warning: {args.token_file} is readable by other users (chmod 600 it)", file=sys.stderr)
+        return token
+    if args.generate_token:
+        token = secrets.token_urlsafe(32)
+        print(f"bearer token (shown once; clients send 'Authorization: Bearer <token>'): {token}",
+              file=sys.stderr, flush=True)
+        return token
+    return from_env
+
+
+def _serve(server: object, args: argparse.Namespace, listening: object = None) -> None:
     if args.transport == "stdio":
         server.mcp_server.run("stdio")  # type: ignore[attr-defined]
-    else:
-        print(f"MCP server at http://{args.host}:{args.port}/mcp", file=sys.stderr, flush=True)
-        server.mcp_server.run("streamable-http", host=args.host, port=args.port)  # type: ignore[attr-defined]
+        return
+    from agentic_mpc.mcp.http import RateLimiter, is_loopback, serve_http
+
+    limiter = RateLimiter(rate=args.rate_limit, burst=max(1.0, 2 * args.rate_limit))
+    server.mcp_server.tool_call_gate = limiter.gate  # type: ignore[attr-defined]
+    if not is_loopback(args.host) and not args.allow_host:
+        print(f"note: only requests with Host {args.host}:{args.port} are accepted; name the address clients use "
+              "with --allow-host NAME:PORT", file=sys.stderr)
+    signal.signal(signal.SIGTERM, _interrupt)  # uvicorn re-raises SIGTERM after its shutdown: end like SIGINT
+    auth = "bearer token required" if args.token else "no token (loopback only)"
+    print(f"MCP server at http://{args.host}:{args.port}/mcp ({auth}; at most {args.rate_limit:g} tool calls/s "
+          "per client)", file=sys.stderr, flush=True)
+    serve_http(server.mcp_server, listening, args.host, args.port, token=args.token,  # type: ignore[attr-defined]
+               allow_hosts=args.allow_host, allow_origins=args.allow_origin)
 
 
-def serve_scenario(args: argparse.Namespace) -> int:
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def serve_scenario(args: argparse.Namespace, listening: object = None) -> int:
     """A scenario in real time behind the MCP server; the host is the agent."""
     from agentic_mpc.scenario.runner import ScenarioRun
     from agentic_mpc.scenario.schema import load_scenario
@@ -107,7 +184,7 @@ def serve_scenario(args: argparse.Namespace) -> int:
         return 1
     logging.getLogger(__name__).info("%s running in SUMO; MCP over %s; files to %s", scenario.name, args.transport, out)
     try:
-        _serve(run.server, args)
+        _serve(run.server, args, listening)
     except KeyboardInterrupt:
         pass
     finally:

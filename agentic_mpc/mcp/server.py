@@ -20,6 +20,11 @@ most every ``publish_interval_s`` of sim time) and whenever the specification ch
 Scheduling: a ``tools/call`` whose ``_meta`` carries ``"agentic-mpc/apply_at_s": t`` is validated now and
 applied when the simulation reaches sim time t (the agent's lockstep mode). Without it a call applies at once.
 
+Who called: every tool call the server receives is reported to :attr:`AgenticMPCServer.on_tool_call` with the
+client that made it (its ``initialize`` name/version, the MCP session id and remote address over HTTP); the run
+loop records them in ``events.csv`` (``tool_call_received``). Over HTTP see :mod:`agentic_mpc.mcp.http` for
+the Host/Origin checks, the bearer token and the per-client rate limit.
+
 The URIs, the ``_meta`` key and the argument check are the client-side contract, in
 :mod:`agentic_mpc.mcp.protocol`; a client imports that, never this module.
 
@@ -61,13 +66,14 @@ from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
 import anyio.lowlevel
-from mcp.server.mcpserver import Context, MCPServer
+from mcp.server.mcpserver import Context
 from mcp.server.mcpserver.exceptions import ResourceNotFoundError, ToolError
 from mcp.server.mcpserver.tools import Tool
 from mcp.server.subscriptions import ResourceUpdated, ServerEvent
 from mcp_types import CallToolResult, TextContent
 from pydantic import Field
 
+from agentic_mpc.mcp.control_server import ControlServer, ToolCallHook
 from agentic_mpc.mcp.protocol import (
     APPLY_AT_META_KEY,
     EGO_URI,
@@ -78,7 +84,6 @@ from agentic_mpc.mcp.protocol import (
     SPECIFICATION_URI,
     TRAFFIC_URI,
     VEHICLE_URI_TEMPLATE,
-    validate_arguments,
 )
 from agentic_mpc.mcp.tools import ControllerTools, ToolCallError
 from agentic_mpc.primitives import Specification
@@ -150,28 +155,6 @@ def _deliver(listener: Callable[[ServerEvent], None], event: ServerEvent) -> Non
         logger.exception("a subscription listener raised")
 
 
-class ControlServer(MCPServer):
-    """``MCPServer`` that validates every call against the tool's published schema before running it.
-
-    (The SDK validates with the pydantic model behind the tool, which ignores unknown arguments; the
-    published schema refuses them, and refuses NaN, which JSON cannot carry but Python's parser accepts.)
-    """
-
-    def __init__(self, *args: Any, tools: list[Tool], **kwargs: Any) -> None:
-        super().__init__(*args, tools=tools, **kwargs)
-        self.input_schemas = {tool.name: tool.parameters for tool in tools}
-
-    async def call_tool(self, name: str, arguments: dict[str, Any], context: Any = None) -> Any:
-        schema = self.input_schemas.get(name)
-        if schema is not None:
-            try:
-                validate_arguments(name, schema, arguments)
-            except ValueError as error:
-                logger.warning("refused call %s(%r): %s", name, arguments, error)
-                raise ToolError(str(error)) from None
-        return await super().call_tool(name, arguments, context)
-
-
 class AgenticMPCServer:
     """The MCP server over one :class:`ControllerTools` and one observation source.
 
@@ -188,6 +171,7 @@ class AgenticMPCServer:
         name: str = "agentic-mpc",
         max_speed_mps: float | None = None,
         publish_interval_s: float = 0.2,
+        on_tool_call: ToolCallHook | None = None,
     ) -> None:
         self.tools = tools
         self.latest_observation = latest_observation
@@ -205,8 +189,19 @@ class AgenticMPCServer:
             tools=self._tools(),
             log_level="WARNING",
         )
+        self.server.on_tool_call = on_tool_call
         self._register_resources()
         tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
+
+    @property
+    def on_tool_call(self) -> ToolCallHook | None:
+        """Called with one dict per tool call received (``tool``, ``arguments``, ``ok``, ``error``,
+        ``result`` (a summary), ``apply_at_s``, ``client``, ``session``, ``address``), from the server's thread."""
+        return self.server.on_tool_call
+
+    @on_tool_call.setter
+    def on_tool_call(self, hook: ToolCallHook | None) -> None:
+        self.server.on_tool_call = hook
 
     @property
     def mcp_server(self) -> ControlServer:

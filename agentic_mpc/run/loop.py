@@ -12,6 +12,9 @@ One control step at simulation time t (:meth:`RunLoop.step`):
 5. the MCP server announces the new observation; emergency-vehicle events may wake the agent
    (observation messages); the step is recorded.
 
+Every tool call the MCP server receives (from the embedded agent or an outside host) is recorded as it
+arrives, with its client and the sim time (``tool_call_received`` in ``events.csv``).
+
 ``run``, ``batch``, ``serve`` and ``ask`` are all this loop: ``serve`` paces it to the wall clock and leaves
 the agent's part to an outside MCP host, ``ask`` builds it and never advances.
 """
@@ -97,6 +100,7 @@ class RunLoop:
         self.server: AgenticMPCServer = build_server(
             self.tools, lambda: world.observation.to_json(), **(server_options or {})
         )
+        self.server.on_tool_call = self.recorder.tool_call_received  # who changed the specification
         self.detector = EmergencyDetector(settings.alert_distance_m)
         self.schedule = MessageSchedule(tuple(messages), self.detector)
         self.stop = threading.Event()

@@ -17,7 +17,9 @@ from agentic_mpc.world.observation import Observation
 TRAFFIC_COLUMNS = ("time_s", "id", "type_id", "vclass", "x_m", "y_m", "heading_rad", "speed_mps", "lane_id",
                    "road_s_m", "gap_m", "relation", "emergency")
 EVENT_COLUMNS = ("event", "tau", "sim_time_s", "role", "source", "content", "tool", "arguments", "ok", "result",
-                 "error", "apply_at_s")
+                 "error", "apply_at_s", "client")
+"""``client`` (last) is set on ``tool_call_received`` rows: one per tool call the MCP server received, with who
+made it (``name/version; session=ID; address=IP``). ``tool_call`` rows are the embedded agent's own transcript."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,6 +48,7 @@ class RunRecorder:
         self.trajectory_rows: list[dict[str, Any]] = []
         self.traffic_rows: list[dict[str, Any]] = []
         self.specification_events: list[dict[str, Any]] = []
+        self.received_calls: list[dict[str, Any]] = []
         self.metrics = MetricsRecorder()
         circles = world.obstacle_circles()
         for obstacle in world.observation.obstacles:
@@ -56,6 +59,20 @@ class RunRecorder:
         self.specification_events.append(
             {"event": "specification", "sim_time_s": round(self.world.time_s, 3), "tau": None,
              "result": json.dumps({"version": version, "attached": specification.summary()})}
+        )
+
+    def tool_call_received(self, call: dict[str, Any]) -> None:
+        """One tool call the MCP server received (any thread), stamped with the world's sim time now."""
+        who = "; ".join(
+            part for part in (call.get("client") or "unknown client",
+                              f"session={call['session']}" if call.get("session") else "",
+                              f"address={call['address']}" if call.get("address") else "") if part
+        )
+        self.received_calls.append(
+            {"event": "tool_call_received", "sim_time_s": round(self.world.time_s, 3), "tau": None,
+             "source": "mcp", "tool": call.get("tool"), "arguments": call.get("arguments"), "ok": call.get("ok"),
+             "result": call.get("result"), "error": call.get("error"), "apply_at_s": call.get("apply_at_s"),
+             "client": who}
         )
 
     def step(self, outcome: StepOutcome, after: Observation) -> None:
@@ -113,7 +130,7 @@ class RunRecorder:
         trajectory = pd.DataFrame(self.trajectory_rows)
         trajectory.to_csv(out_dir / "trajectory.csv", index=False)
         pd.DataFrame(self.traffic_rows, columns=list(TRAFFIC_COLUMNS)).to_csv(out_dir / "traffic.csv", index=False)
-        events = events_table(sorted(transcript + self.specification_events,
+        events = events_table(sorted(transcript + list(self.received_calls) + self.specification_events,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
         events.to_csv(out_dir / "events.csv", index=False)
         summary: dict[str, Any] = {
