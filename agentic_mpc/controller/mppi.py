@@ -72,11 +72,14 @@ class FourierMPPI:
         self._work = np.empty((7, c.samples))
         self._costs = np.empty(c.samples)
         self.mean = np.zeros((2, c.coefficients))
+        self.optimum = self.mean
         self.previous_input = (0.0, 0.0)  # (delta, throttle/brake) applied last step, for J0's rate term
 
     def reset(self, mean: np.ndarray | None = None) -> None:
         """Forget the warm start (or set it: shape (2, 2L+1), steering then throttle/brake)."""
         self.mean = np.zeros((2, self.config.coefficients)) if mean is None else np.array(mean, dtype=np.float64)
+        self.optimum = self.mean
+        """The weighted-mean coefficients of the last step (before the warm-start shift)."""
         self.previous_input = (0.0, 0.0)
 
     def sample(self) -> np.ndarray:
@@ -133,6 +136,7 @@ class FourierMPPI:
             optimum = np.einsum("s,ics->ic", weights, z)
         else:  # every sample's cost was NaN or infinite: keep the previous plan rather than average garbage
             optimum = self.mean
+        self.optimum = optimum
         delta_now, ab_now = (float(v) for v in fourier.value_at_start(optimum))
         self.mean = self._shift(optimum) if self.config.warm_start == "shifted" else optimum
         ess = float(1.0 / np.dot(weights, weights)) if weights is not None else 0.0
@@ -149,6 +153,14 @@ class FourierMPPI:
             solve_ms=(time.perf_counter() - started) * 1e3,
             used_fast_path=fast,
         )
+
+    def planned_states(self, state: np.ndarray) -> np.ndarray:
+        """The optimal predicted trajectory of the last step: its weighted-mean coefficients rolled out from
+        ``state`` (the state that step started from), shape (H, 4). For recording and replays; not on the
+        hot path."""
+        z = self.optimum[:, :, None]
+        rolled = self.rollouts(np.asarray(state, dtype=np.float64), z)
+        return np.stack([rolled.x_m[:, 0], rolled.y_m[:, 0], rolled.phi_rad[:, 0], rolled.v_mps[:, 0]], axis=1)
 
     def weights(self, costs: np.ndarray) -> tuple[np.ndarray | None, float]:
         """Normalised MPPI weights exp(-(J - min J) / T) (sum 1), or None if no sample has a finite cost."""

@@ -57,6 +57,8 @@ class LoopSettings:
     """Wall seconds per simulated second (1 = real time; None: as fast as it goes)."""
     alert_distance_m: float = 80.0
     """How far behind an emergency vehicle starts to matter (events and observation messages)."""
+    plan_stride: int = 0
+    """Record the controller's optimal predicted trajectory every this many steps (0: never)."""
 
 
 @dataclass
@@ -143,6 +145,9 @@ class RunLoop:
             if self._observation_messages:
                 self.agent.deliver(event.message(), sim_time_s=round(after.time_s, 3), source="observation")
         self.recorder.step(outcome, after)
+        stride = self.settings.plan_stride
+        if stride and (len(self.recorder.trajectory_rows) - 1) % stride == 0:
+            self.recorder.plan(before.time_s, self.controller.planned_states(state))
         return outcome
 
     def run(self) -> None:

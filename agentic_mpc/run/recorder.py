@@ -1,5 +1,6 @@
 """What a run records, and the files it writes: ``trajectory.csv`` (one row per control step),
-``traffic.csv`` (the other road users every few steps), ``events.csv`` (messages, tool calls, specification
+``traffic.csv`` (the other road users every few steps), ``plan.csv`` (the controller's optimal predicted
+trajectory every few steps, when asked for), ``events.csv`` (messages, tool calls, specification
 changes), ``obstacles.csv`` and ``summary.csv`` (the metrics of :mod:`agentic_mpc.scenario.metrics`)."""
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ class RunRecorder:
         self.traffic_rows: list[dict[str, Any]] = []
         self.specification_events: list[dict[str, Any]] = []
         self.received_calls: list[dict[str, Any]] = []
+        self.plan_rows: list[tuple[float, int, float, float]] = []
         self.metrics = MetricsRecorder()
         circles = world.obstacle_circles()
         for obstacle in world.observation.obstacles:
@@ -107,6 +109,12 @@ class RunRecorder:
         if (len(self.trajectory_rows) - 1) % self.traffic_stride == 0:
             self._traffic(after)
 
+    def plan(self, time_s: float, states: Any) -> None:
+        """The controller's optimal predicted trajectory at ``time_s`` ((H, 4) states, k = 1..H)."""
+        self.plan_rows.extend(
+            (time_s, k, round(float(x), 3), round(float(y), 3)) for k, (x, y) in enumerate(states[:, :2], start=1)
+        )
+
     def _traffic(self, observation: Observation) -> None:
         emergency_ids = {e.vehicle.id for e in observation.emergency_vehicles}
         others = {v.id: v for v in observation.traffic}
@@ -130,6 +138,8 @@ class RunRecorder:
         trajectory = pd.DataFrame(self.trajectory_rows)
         trajectory.to_csv(out_dir / "trajectory.csv", index=False)
         pd.DataFrame(self.traffic_rows, columns=list(TRAFFIC_COLUMNS)).to_csv(out_dir / "traffic.csv", index=False)
+        if self.plan_rows:
+            pd.DataFrame(self.plan_rows, columns=["time_s", "k", "x_m", "y_m"]).to_csv(out_dir / "plan.csv", index=False)
         events = events_table(sorted(transcript + list(self.received_calls) + self.specification_events,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
         events.to_csv(out_dir / "events.csv", index=False)

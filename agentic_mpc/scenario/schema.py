@@ -102,6 +102,7 @@ class OutputSettings(_Strict):
     traffic_stride: int = Field(5, ge=1, description="write SUMO vehicles every this many steps")
     plot: bool = True
     replay: bool = Field(True, description="write replay.html, the animated replay of the run")
+    plan_stride: int = Field(5, ge=1, description="with replay: record the MPPI plan (plan.csv) every this many steps")
 
 
 class Scenario(_Strict):

@@ -119,3 +119,17 @@ def test_config_is_validated():
         MPPIConfig(samples=255)
     with pytest.raises(ValueError, match="temperature"):
         MPPIConfig(temperature=0)
+
+
+def test_the_recorded_plan_starts_where_the_applied_input_takes_the_car():
+    from agentic_mpc.vehicle import step as vehicle_step
+
+    controller = FourierMPPI(seed=3)
+    state = np.array([0.0, 0.2, 0.0, 14.0])
+    lane = LanePath.straight((-20.0, 0.0), (400.0, 0.0), name="center")
+    out = controller.step(state, Specification.of(PathTracking(path=lane, lane="center", v_ref_mps=15.0)))
+    plan = controller.planned_states(state)
+    assert plan.shape == (controller.config.horizon, 4)
+    np.testing.assert_allclose(plan[0], vehicle_step(state, out.delta, out.throttle, out.brake, controller.params),
+                               atol=1e-9)
+    assert np.all(np.diff(plan[:, 0]) > 0)  # it drives on along the lane
