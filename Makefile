@@ -12,9 +12,6 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test,dask]"
-	# the replay's browser test drives Debian's chromium (never `playwright install`); root with apt-get only
-	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
-		command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium) || true; fi
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -23,6 +20,10 @@ demo: $(STAMP)
 	$(BIN)/agentic-mpc plot out/paper
 
 test: $(STAMP)
+	# the replay's browser test drives Debian's chromium (never `playwright install`); root with apt-get only,
+	# elsewhere that test is skipped with its reason
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium) || true; fi
 	$(BIN)/python -m pytest
 
 test-fast: $(STAMP)

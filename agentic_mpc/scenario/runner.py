@@ -173,8 +173,9 @@ def run_to_directory_with_replay(scenario_file: Path, variant: str, seed: int, o
 
 def drive(scenario: Scenario) -> Any:
     """Run ``scenario`` in this process without writing files (the demo, tests); returns the closed
-    :class:`~agentic_mpc.run.loop.RunLoop` with its recorder."""
-    loop = build_loop(scenario, build_world(scenario))
+    :class:`~agentic_mpc.run.loop.RunLoop` with its recorder. No replay is written, so no plan is recorded."""
+    outputs = scenario.outputs.model_copy(update={"replay": False})
+    loop = build_loop(scenario.model_copy(update={"outputs": outputs}), build_world(scenario))
     try:
         loop.run()
     finally:

@@ -102,7 +102,9 @@ class OutputSettings(_Strict):
     traffic_stride: int = Field(5, ge=1, description="write SUMO vehicles every this many steps")
     plot: bool = True
     replay: bool = Field(True, description="write replay.html, the animated replay of the run")
-    plan_stride: int = Field(5, ge=1, description="with replay: record the MPPI plan (plan.csv) every this many steps")
+    plan_stride: int = Field(
+        25, ge=1, description="with replay: record the MPPI plan (plan.csv) every this many steps (a rollout costs ms)"
+    )
 
 
 class Scenario(_Strict):

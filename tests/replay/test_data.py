@@ -35,9 +35,9 @@ def test_plain_run_scene(plain_run):
     assert tool["text"] == "set_preferred_steering_direction(direction=right)"
     assert "preferred_steering_direction(direction=right)" in scene["ego"]["specs"][-1][2]
     assert scene["notes"] == []
-    # the run recorded the MPPI plan every 5 steps: H = 50 points starting just ahead of the ego
+    # the run recorded the MPPI plan every 25 steps: H = 50 points starting just ahead of the ego
     plan_rows = list(csv.DictReader((plain_run / "plan.csv").open()))
-    assert len(plan_rows) == 50 * len(range(0, len(rows), 5))
+    assert len(plan_rows) == 50 * len(range(0, len(rows), 25))
     first = [r for r in plan_rows if r["time_s"] == rows[0]["time_s"]]
     assert [int(r["k"]) for r in first] == list(range(1, 51))
     assert 0.0 < float(first[0]["x_m"]) - float(rows[0]["x_m"]) < 1.0  # one step of 0.04 s at 15 m/s
