@@ -25,8 +25,7 @@ import logging
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -69,7 +68,6 @@ class AgentSetup:
     config: Any
     """An :class:`~agentic_mpc.agent.agent.AgentConfig`."""
     observation_messages: bool = False
-    transcript_path: Path | None = field(default=None)
 
 
 class RunLoop:
