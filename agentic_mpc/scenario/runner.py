@@ -39,6 +39,8 @@ def build_backend(settings: AgentSettings, lefthand: bool) -> Any:
 
     if settings.backend == "rules":
         return make_backend("rules", yield_lane="left" if lefthand else "right")
+    if settings.backend == "llamacpp":  # a GGUF file in process; `model` is its path
+        return make_backend("llamacpp", model_path=settings.model)
     return make_backend("openai", base_url=settings.base_url, model=settings.model, api_key_env=settings.api_key_env,
                         timeout_s=settings.timeout_s)
 

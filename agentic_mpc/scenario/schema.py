@@ -66,9 +66,9 @@ class SpecificationSettings(_Strict):
 class AgentSettings(_Strict):
     """Which agent runs, how its latency is modelled, and whether what SUMO sees can wake it."""
 
-    backend: Literal["rules", "openai"] = "rules"
+    backend: Literal["rules", "openai", "llamacpp"] = "rules"
     base_url: str = Field("http://localhost:11434/v1", description="openai backend: the chat-completions endpoint")
-    model: str = Field("granite4:micro", description="openai backend: the model name")
+    model: str = Field("granite4:micro", description="openai backend: the model name; llamacpp: the GGUF file's path")
     api_key_env: str | None = Field(None, description="openai backend: environment variable holding the API key")
     timeout_s: float = Field(60.0, gt=0)
     mode: Literal["lockstep", "realtime"] = Field(

@@ -34,7 +34,7 @@ def ask_main(*argv: str) -> int:
     ],
 )
 def test_ask_prints_the_paper_calls_as_json(capsys, message, expected):
-    assert ask_main(message, "--json") == 0
+    assert ask_main(message, "--json") == (0 if expected else 1)  # 1: no tool call was made
     assert json.loads(capsys.readouterr().out) == expected
 
 
@@ -97,3 +97,44 @@ def test_ask_starts_from_a_scenario_and_yields_to_its_road_edge():
     # left-hand traffic (the paper's): pull over to the left; right-hand traffic: to the right
     assert ask("paper_emergency_response.yaml") == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
     assert ask("paper_steering_preference.yaml") == [{"tool": "run_right_lane", "arguments": {"v_ref": 0}}]
+
+
+def test_ask_says_why_no_call_was_made_when_the_model_answers_in_prose(capsys):
+    with ScriptedLLM([text("Pulling over now, the ambulance can pass.")]) as llm:
+        code = ask_main("An ambulance is coming behind us.", "--backend", "openai", "--base-url", llm.base_url)
+    captured = capsys.readouterr()
+    assert code == 1 and "(no tool call)" in captured.out
+    assert ("no tool call was made: the agent answered without calling a tool: "
+            "'Pulling over now, the ambulance can pass.'") in captured.err
+
+
+def test_ask_says_why_no_call_was_made_when_the_call_is_unreadable(capsys):
+    broken = text('```json\n{"name": "run_left_lane", "arguments": {"v_ref": 0\n```')
+    with ScriptedLLM([broken] * 3) as llm:
+        code = ask_main("An ambulance is coming behind us.", "--backend", "openai", "--base-url", llm.base_url,
+                        "--json")
+    captured = capsys.readouterr()
+    assert code == 1 and json.loads(captured.out) == []
+    assert "could not read the tool call" in captured.err
+    assert "no tool call was made: its 3 tool call(s) were unreadable or refused" in captured.err
+
+
+def test_ask_passes_the_model_options(capsys):
+    script = [text('{"name": "run_left_lane", "arguments": {"v_ref": 0}}'), text('{"reply": "Done."}')]
+    with ScriptedLLM(script) as llm:
+        code = ask_main("An ambulance is coming behind us.", "--backend", "openai", "--base-url", llm.base_url,
+                        "--tool-mode", "json_schema", "--temperature", "0.3", "--max-tokens", "64", "--json")
+    assert code == 0 and json.loads(capsys.readouterr().out) == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    first = llm.requests[0]
+    assert first["response_format"]["type"] == "json_schema" and "tools" not in first
+    assert first["temperature"] == 0.3 and first["max_tokens"] == 64
+
+
+@pytest.mark.parametrize(("content", "why"), [(None, "does not exist"), (b"PK\x03\x04 a zip", "is not a GGUF model file")])
+def test_ask_with_a_bad_model_file_fails_before_the_run(capsys, tmp_path, content, why):
+    path = tmp_path / "model.gguf"
+    if content is not None:
+        path.write_bytes(content)
+    assert ask_main("hello", "--backend", "llamacpp", "--model-path", str(path)) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and why in captured.err and str(path) in captured.err

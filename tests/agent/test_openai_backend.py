@@ -158,3 +158,72 @@ def test_parse_arguments():
     assert parse_arguments("") == ({}, None)
     assert parse_arguments('{"v_ref": Infinity}')[1].startswith("arguments are not valid JSON")
     assert parse_arguments(42)[1] == "arguments must be a JSON object, got int"
+
+
+FENCED = '```json\n{"name": "run_left_lane", "arguments": {"v_ref": 0}}\n```'
+
+
+@pytest.mark.parametrize("content", [FENCED, '{{"name": "run_left_lane", "arguments": {{"v_ref": 0}}}}'],
+                         ids=["fenced", "doubled-braces"])
+def test_calls_written_in_fences_or_doubled_braces_are_applied(loop, server, content):
+    with ScriptedLLM([text(content), text("Done.")]) as llm, Agent(backend(llm), server) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    assert report.ended == "idle" and not report.errors
+    # the model sees its call as it wrote it (not as tool_calls its template may drop) and the result as text
+    sent = llm.requests[1]["messages"]
+    assert sent[2] == {"role": "assistant", "content": '{"name": "run_left_lane", "arguments": {"v_ref": 0}}'}
+    assert sent[3]["role"] == "user" and sent[3]["content"].startswith("[result of run_left_lane] ")
+
+
+def test_a_failed_call_in_text_is_an_error_the_model_is_told_about_and_can_fix(loop, server, tmp_path):
+    broken = '```json\n{"name": "run_left_lane", "arguments": {"v_ref": 0\n```'
+    script = [text(broken), text(FENCED), text("Done.")]
+    config = AgentConfig(transcript_path=tmp_path / "t.jsonl")
+    with ScriptedLLM(script) as llm, Agent(backend(llm), server, config) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    assert report.ended == "idle" and len(report.errors) == 1
+    assert report.errors[0].startswith("unparsed_tool_call: Error: could not read the tool call")
+    told = llm.requests[1]["messages"][-1]
+    assert told["role"] == "user" and '{"name": "<tool>", "arguments": {...}}' in told["content"]
+    assert "run_center_lane, run_left_lane, run_right_lane" in told["content"]
+    records = [json.loads(line) for line in (tmp_path / "t.jsonl").read_text().splitlines()]
+    failed = [r for r in records if r["event"] == "tool_result" and r["is_error"]]
+    assert len(failed) == 1 and "could not read the tool call" in failed[0]["error"]
+    assert next(r for r in records if r["event"] == "tool_call")["raw_arguments"].startswith('{"name": "run_left_lane"')
+    assert records[-1]["event"] == "step_end" and records[-1]["errors"] == report.errors
+
+
+def test_a_model_that_keeps_writing_unreadable_calls_gives_up_and_changes_nothing(loop, server):
+    script = [text('{"name": "run_left_lane", "arguments": {"v_ref": ')] * 10
+    with ScriptedLLM(script) as llm, Agent(backend(llm), server, AgentConfig(max_consecutive_errors=3)) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.ended == "gave_up" and len(llm.requests) == 3 and len(report.errors) == 3
+    assert loop.slot.version == 0
+
+
+def test_an_endless_loop_of_calls_is_bounded(loop, server):
+    script = [text(FENCED)] * 20
+    with ScriptedLLM(script) as llm, Agent(backend(llm), server, AgentConfig(max_rounds_per_step=4)) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.ended == "round_limit" and len(llm.requests) == 4 and len(report.applied_calls) == 4
+
+
+def test_prose_is_a_reply_without_a_call_and_without_an_error(loop, server):
+    with ScriptedLLM([text("What a lovely day indeed.")]) as llm, Agent(backend(llm), server) as agent:
+        report = agent.deliver("What a nice day!").result(30)
+    assert report.ended == "idle" and report.text == "What a lovely day indeed." and not report.errors
+
+
+def test_json_schema_mode_through_the_agent(loop, server):
+    script = [text('{"name": "run_left_lane", "arguments": {"v_ref": 0}}'), text('{"reply": "Pulled over."}')]
+    with ScriptedLLM(script) as llm, Agent(backend(llm, tool_mode="json_schema"), server) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.applied_calls == [{"tool": "run_left_lane", "arguments": {"v_ref": 0}}]
+    assert report.text == "Pulled over." and report.ended == "idle"
+    first, second = llm.requests
+    assert "tools" not in first and first["response_format"]["type"] == "json_schema"
+    names = [o["properties"]["name"]["const"] for o in first["response_format"]["json_schema"]["schema"]["oneOf"][:-1]]
+    assert "run_left_lane" in names and len(names) == 6
+    assert [m["role"] for m in second["messages"]] == ["system", "user", "assistant", "user"]

@@ -1,0 +1,68 @@
+"""The ``llamacpp`` backend's set-up: the model file is checked before anything runs, with a clear error;
+the backend is registered where backends are chosen (``make_backend``, the scenario's ``agent.backend``)."""
+
+from __future__ import annotations
+
+import pytest
+
+from agentic_mpc.agent.backends import BACKENDS, make_backend
+from agentic_mpc.agent.backends.llamacpp import LlamaCppConfig, ModelFileError, check_gguf
+
+
+def test_a_missing_model_file_is_a_clear_error(tmp_path):
+    with pytest.raises(ModelFileError, match="does not exist"):
+        make_backend("llamacpp", model_path=tmp_path / "nothing.gguf")
+
+
+def test_a_file_that_is_not_gguf_is_a_clear_error(tmp_path):
+    path = tmp_path / "model.gguf"
+    path.write_text("<html>a download error page</html>")
+    with pytest.raises(ModelFileError, match=r"is not a GGUF model file \(it starts with b'<htm'"):
+        make_backend("llamacpp", model_path=path)
+    with pytest.raises(ModelFileError, match="is not a file"):
+        check_gguf(tmp_path)
+    assert isinstance(ModelFileError("x"), ValueError)
+
+
+def test_a_gguf_file_that_llama_cpp_cannot_load_is_a_clear_error(tmp_path):
+    pytest.importorskip("xllamacpp", reason='xllamacpp is not installed: pip install -e ".[llm]"')
+    path = tmp_path / "truncated.gguf"
+    path.write_bytes(b"GGUF" + bytes(60))
+    with pytest.raises(ModelFileError, match="llama.cpp could not load"):
+        make_backend("llamacpp", model_path=path)
+
+
+def test_defaults_suit_a_small_shared_machine():
+    config = LlamaCppConfig(model_path="m.gguf")
+    assert (config.threads, config.tool_mode, config.temperature) == (1, "json_schema", 0.0)
+    assert "llamacpp" in BACKENDS
+
+
+def test_a_scenario_can_choose_it(tmp_path):
+    from agentic_mpc.scenario.runner import build_backend
+    from agentic_mpc.scenario.schema import AgentSettings
+
+    settings = AgentSettings(backend="llamacpp", model=str(tmp_path / "granite.gguf"))
+    with pytest.raises(ModelFileError, match="granite.gguf does not exist"):
+        build_backend(settings, lefthand=True)
+
+
+def test_a_streamed_answer_is_assembled_into_one_message():
+    from agentic_mpc.agent.backends.base import BackendError
+    from agentic_mpc.agent.backends.llamacpp import assemble_stream
+
+    def chunk(delta, finish=None):
+        return {"choices": [{"index": 0, "delta": delta, "finish_reason": finish}]}
+
+    chunks = [chunk({"role": "assistant", "content": None}), chunk({"content": "Pulling "}), chunk({"content": "over."}),
+              chunk({"tool_calls": [{"index": 0, "id": "c1", "type": "function",
+                                     "function": {"name": "run_left_lane", "arguments": '{"v_r'}}]}),
+              chunk({"tool_calls": [{"index": 0, "function": {"arguments": 'ef": 0}'}}]}), chunk({}, "tool_calls")]
+    (choice,) = assemble_stream(chunks)["choices"]
+    assert choice["finish_reason"] == "tool_calls"
+    assert choice["message"] == {"role": "assistant", "content": "Pulling over.", "tool_calls": [
+        {"id": "c1", "type": "function", "function": {"name": "run_left_lane", "arguments": '{"v_ref": 0}'}}]}
+    with pytest.raises(BackendError, match="exceeds the available context size"):
+        assemble_stream([{"error": {"code": 400, "message": "request (431 tokens) exceeds the available context size"}}])
+    with pytest.raises(BackendError, match="no answer"):
+        assemble_stream([])
