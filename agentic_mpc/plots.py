@@ -124,14 +124,14 @@ def _save(fig: Any, path: Path, dpi: int) -> Path:
 def run_figure(out_dir: Path, world: Any, metrics: Any, title: str = "") -> Path:
     """``trajectory.png`` of one run in ``out_dir`` (from its trajectory, traffic and events CSV files):
     bird's-eye view over ``world``'s lanes and ``metrics``' obstacles, speed with the ambulance's distance,
-    lateral offset, the agent's tool calls marked."""
+    lateral offset, acceleration with the MPPI effective sample size, the agent's tool calls marked."""
     out_dir = Path(out_dir)
     trajectory = pd.read_csv(out_dir / "trajectory.csv")
     traffic = pd.read_csv(out_dir / "traffic.csv")
     events = pd.read_csv(out_dir / "events.csv")
     circles = [(c.x_m, c.y_m, c.radius_m) for track in metrics.obstacles for c in track.circles]
-    fig = plt.figure(figsize=(11, 7))
-    grid = fig.add_gridspec(3, 1, height_ratios=[0.7, 1, 1])
+    fig = plt.figure(figsize=(11, 9))
+    grid = fig.add_gridspec(4, 1, height_ratios=[0.7, 1, 1, 1])
     ax_map = fig.add_subplot(grid[0])
     _draw_road(ax_map, _lanes_of(world))
     _draw_obstacles(ax_map, circles)
@@ -157,11 +157,28 @@ def run_figure(out_dir: Path, world: Any, metrics: Any, title: str = "") -> Path
     ax_y.plot(trajectory["time_s"], trajectory["tracked_lane_offset_m"], color="tab:blue", label="from tracked lane")
     ax_y.plot(trajectory["time_s"], trajectory["lateral_offset_m"], color="0.6", lw=0.8, label="from current lane")
     ax_y.set_ylabel("lateral offset [m]")
-    ax_y.set_xlabel("time [s]")
     ax_y.legend(fontsize=8, loc="upper right")
-    _mark_events([ax_v, ax_y], _tool_calls(events))
+    ax_a = fig.add_subplot(grid[3], sharex=ax_v)
+    _acceleration_and_ess(ax_a, trajectory)
+    ax_a.set_xlabel("time [s]")
+    _mark_events([ax_v, ax_y, ax_a], _tool_calls(events))
     fig.tight_layout()
     return _save(fig, out_dir / "trajectory.png", dpi=110)
+
+
+def _acceleration_and_ess(ax: Any, trajectory: pd.DataFrame) -> None:
+    """Acceleration (what the passenger feels) and, on a second axis, the MPPI effective sample size as a
+    share of S (how many samples carry the average: solver health)."""
+    if "accel_mps2" in trajectory:
+        ax.plot(trajectory["time_s"], trajectory["accel_mps2"], color="tab:blue", lw=0.8, label="acceleration")
+    ax.axhline(0, color="0.6", lw=0.4)
+    ax.set_ylabel("acceleration [m/s$^2$]")
+    if "effective_fraction" in trajectory:
+        ax_ess = ax.twinx()
+        ax_ess.plot(trajectory["time_s"], 100 * trajectory["effective_fraction"], color="tab:green", lw=0.6,
+                    alpha=0.7)
+        ax_ess.set_ylim(0, 100)
+        ax_ess.set_ylabel("ESS [% of S]", color="tab:green")
 
 
 def batch_figures(batch_dir: Path, road_of: Callable[[Path], Any]) -> list[Path]:
@@ -184,7 +201,7 @@ def batch_figures(batch_dir: Path, road_of: Callable[[Path], Any]) -> list[Path]
         frames = []
         circles: list[tuple[float, float, float]] = []
         labelled: set[str] = set()
-        fig_t, (ax_v, ax_y, ax_d) = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+        fig_t, (ax_v, ax_y, ax_a, ax_d) = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
         for run in runs:
             variant = run.parent.parent.name
             colour = colour_of(variant, variants)
@@ -195,6 +212,8 @@ def batch_figures(batch_dir: Path, road_of: Callable[[Path], Any]) -> list[Path]
             ax.plot(trajectory["x_m"], trajectory["y_m"], color=colour, lw=1, alpha=0.8, label=label)
             ax_v.plot(trajectory["time_s"], trajectory["v_mps"], color=colour, lw=0.8, alpha=0.8, label=label)
             ax_y.plot(trajectory["time_s"], trajectory["tracked_lane_offset_m"], color=colour, lw=0.8, alpha=0.8)
+            if "accel_mps2" in trajectory:
+                ax_a.plot(trajectory["time_s"], trajectory["accel_mps2"], color=colour, lw=0.6, alpha=0.8)
             traffic_file = run.parent / "traffic.csv"
             if traffic_file.exists():
                 distance = _ambulance_distance(trajectory, pd.read_csv(traffic_file))
@@ -212,6 +231,7 @@ def batch_figures(batch_dir: Path, road_of: Callable[[Path], Any]) -> list[Path]
         path = _save(fig, batch_dir / f"{scenario_dir.name}_trajectories.png", dpi=120)
         ax_v.set_ylabel("speed [m/s]")
         ax_y.set_ylabel("offset from tracked lane [m]")
+        ax_a.set_ylabel("acceleration [m/s$^2$]")
         ax_d.set_ylabel("ambulance - ego [m]")
         ax_d.set_xlabel("time [s]")
         ax_v.legend(fontsize=8)

@@ -27,6 +27,33 @@ def coefficient_std(first: float, decay: float, order: int) -> NDArray[np.float6
     return np.array([first] + [first * decay**harmonic for harmonic in range(1, order + 1) for _ in (0, 1)])
 
 
+def start_row(order: int) -> NDArray[np.float64]:
+    """The row a with u(0) = a . z: ones at beta_0 and every beta_l, zeros at the alpha_l."""
+    row = np.zeros(2 * order + 1)
+    row[0] = 1.0
+    row[2::2] = 1.0
+    return row
+
+
+def noise_with_fixed_start(std: NDArray[np.float64], level_share: float = 1.0) -> NDArray[np.float64]:
+    """The matrix M such that n = M @ eps (eps standard normal) has a . n = 0: no noise on u(0).
+
+    n = (I - c a^T) diag(std) eps, where c (with a . c = 1) says which coefficients take back what would
+    move u(0): c proportional to diag(std^2) a, with beta_0's variance weighted by ``level_share``.
+    ``level_share = 1`` is the Gaussian conditioned on u(0) = 0 (every coefficient keeps its spread apart
+    from the one direction that moves u(0); beta_0 then varies about as little as the harmonics);
+    ``level_share = 0`` leaves beta_0 the paper's spread and lets the cosines carry the correction.
+    """
+    order = (len(std) - 1) // 2
+    if order < 1:
+        raise ValueError("pinning the first input needs at least one harmonic (order >= 1)")
+    a = start_row(order)
+    weights = std**2 * a
+    weights[0] *= level_share
+    c = weights / float(a @ weights)
+    return (np.eye(len(std)) - np.outer(c, a)) * std[None, :]
+
+
 def value_at_start(z: NDArray[np.float64]) -> NDArray[np.float64]:
     """u(0) = beta_0 + sum beta_l (sin 0 = 0, cos 0 = 1). Works on the last axis."""
     return z[..., 0] + z[..., 2::2].sum(axis=-1)

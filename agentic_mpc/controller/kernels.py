@@ -84,7 +84,7 @@ def rollout_costs(
     work,
     costs,
 ):
-    """Total cost of every sample into ``costs`` (S,). ``z_delta``, ``z_ab``: (2L+1, S); ``work``: (7, S)."""
+    """Total cost of every sample into ``costs`` (S,). ``z_delta``, ``z_ab``: (2L+1, S); ``work``: (9, S)."""
     n_coef, n_samples = z_delta.shape
     horizon = basis.shape[1]
     dt, r_delta, kappa, inv_lr, w_a, w_b, w_v = (
@@ -92,7 +92,9 @@ def rollout_costs(
     )
     steer_w, ab_w, v_max, speed_w = limits[0], limits[1], limits[2], limits[3]
     rate_w, previous_delta, previous_ab = limits[4], limits[5], limits[6]
+    smooth_d_w, smooth_ab_w, brake_w = limits[7], limits[8], limits[9]
     x, y, c, s, v, dcmd, abcmd = work[0], work[1], work[2], work[3], work[4], work[5], work[6]
+    dprev, abprev = work[7], work[8]  # the raw commands of the previous stage, for the smoothness terms
     cos0, sin0 = np.cos(state[2]), np.sin(state[2])
     for i in range(n_samples):
         x[i] = state[0]
@@ -117,9 +119,17 @@ def rollout_costs(
             for i in range(n_samples):
                 dcmd[i] += bj * z_delta[n_coef - 1, i]
                 abcmd[i] += bj * z_ab[n_coef - 1, i]
+        if k == 0:  # no stage before the first: its differences are zero
+            for i in range(n_samples):
+                dprev[i] = dcmd[i]
+                abprev[i] = abcmd[i]
         for i in range(n_samples):
             dc = dcmd[i]
             abc = abcmd[i]
+            step_d = dc - dprev[i]
+            step_ab = abc - abprev[i]
+            dprev[i] = dc
+            abprev[i] = abc
             over_d = max(abs(dc) - 1.0, 0.0)
             over_ab = max(abs(abc) - 1.0, 0.0)
             delta = min(max(dc, -1.0), 1.0)
@@ -149,6 +159,7 @@ def rollout_costs(
             v[i] = vn
             dcmd[i] = delta  # the saturated steering, for the steering-sign term below
             costs[i] += steer_w * over_d * over_d + ab_w * over_ab * over_ab + speed_w * over_v * over_v
+            costs[i] += smooth_d_w * step_d * step_d + smooth_ab_w * step_ab * step_ab + brake_w * brake * brake
         if k == 0:  # anti-chatter: the first input against the one applied at the previous step
             for i in range(n_samples):
                 d_delta = dcmd[i] - previous_delta
@@ -193,6 +204,65 @@ def rollout_costs(
             for i in range(n_samples):
                 violation = max(0.0, margin + side * (tx * (y[i] - ey) - ty * (x[i] - ex)))
                 costs[i] += weight * violation * violation
+
+
+# No fastmath here: costs may be infinite (a sample with a non-finite cost), and fastmath assumes they are not.
+_JIT_EXACT = {"error_model": "numpy", "cache": True, "nogil": True}
+
+
+@numba.njit(**_JIT_EXACT)
+def effective_samples(shifted_costs, temperature):
+    """(sum w)^2 / sum w^2 with w = exp(-shifted / T); ``shifted_costs`` >= 0, inf for excluded samples."""
+    total = 0.0
+    squares = 0.0
+    inverse = 1.0 / temperature
+    for i in range(shifted_costs.shape[0]):
+        w = np.exp(-shifted_costs[i] * inverse)
+        total += w
+        squares += w * w
+    return total * total / squares
+
+
+@numba.njit(**_JIT_EXACT)
+def temperature_for_band(shifted_costs, temperature, low, high):
+    """A temperature whose effective sample size lies in [low, high], starting from ``temperature``.
+
+    ESS grows monotonically with T. If ``temperature`` already gives an ESS in the band it is kept (so the
+    weighting changes only when it must); otherwise T is bracketed by factors of 4 and bisected in log T
+    towards the band's geometric middle. Costs that cannot reach the band (all equal, or one finite
+    sample) end at the bracket's limit. Returns (T, ESS).
+    """
+    ess = effective_samples(shifted_costs, temperature)
+    if low <= ess <= high:
+        return temperature, ess
+    target = np.sqrt(low * high)
+    lower, upper = temperature, temperature
+    if ess < low:
+        for _ in range(30):
+            lower = upper
+            upper *= 4.0
+            ess = effective_samples(shifted_costs, upper)
+            if ess >= target or upper > 1e12:
+                break
+        t = upper
+    else:
+        for _ in range(30):
+            upper = lower
+            lower *= 0.25
+            ess = effective_samples(shifted_costs, lower)
+            if ess <= target or lower < 1e-12:
+                break
+        t = lower
+    for _ in range(20):
+        if low <= ess <= high and abs(np.log(ess / target)) < 0.2:
+            break
+        t = np.sqrt(lower * upper)
+        ess = effective_samples(shifted_costs, t)
+        if ess < target:
+            lower = t
+        else:
+            upper = t
+    return t, ess
 
 
 def fused_costs(

@@ -3,11 +3,15 @@
 One control step (``FourierMPPI.step``):
 
 1. bind the specification to the current state (reference points etc.);
-2. sample S coefficient vectors around the mean, z_s = z_bar + sigma * eps_s, for steering and for
-   throttle/brake (the paper's per-order standard deviations);
+2. sample S coefficient vectors around the mean, z_s = z_bar + M eps_s, for steering and for
+   throttle/brake: the paper's per-order standard deviations (harmonics scaled by ``harmonic_std_scale``),
+   by default conditioned so that no sample moves the first input (``first_input_noise="pinned"``);
 3. synthesise the input sequences, roll out the vehicle model, add up the attached primitives' costs;
-4. w_s = exp(-(J_s - min J) / T), z* = sum w_s z_s / sum w_s;
+4. w_s = exp(-(J_s - min J) / T), z* = sum w_s z_s / sum w_s, with T adapted each step so that the
+   effective sample size stays in ``ess_band`` (optionally over the ``elite_samples`` best only);
 5. apply u*(0), the first input of z*, and keep z* as the next step's mean (warm start).
+
+Why the levers of steps 2 and 4 exist, and what each measured: docs/cost-design.md.
 
 Step 3 runs in the fused Numba kernel when every attached primitive has a fused form, and in plain NumPy
 otherwise (or with ``backend="reference"``). The two agree to float tolerance (tests/controller).
@@ -39,6 +43,10 @@ class ControlOutput:
     """Lowest sampled cost."""
     effective_samples: float
     """(sum w)^2 / sum w^2: how many samples really carry the average (1 = one sample dominates)."""
+    effective_fraction: float
+    """``effective_samples`` / S."""
+    temperature: float
+    """The temperature the weights used (adapted when ``ess_band`` is set)."""
     solve_ms: float
     used_fast_path: bool
 
@@ -58,22 +66,31 @@ class FourierMPPI:
         c = self.config
         self.basis = np.ascontiguousarray(fourier.basis(c.order, c.horizon))
         self._shift = fourier.OneStepShift(c.order, c.horizon)
+        harmonic_scale = np.r_[1.0, np.full(2 * c.order, c.harmonic_std_scale)]
         self.std = np.stack(
             [
-                fourier.coefficient_std(c.steer_std, c.std_decay, c.order),
-                fourier.coefficient_std(c.throttle_brake_std, c.std_decay, c.order),
+                fourier.coefficient_std(c.steer_std, c.std_decay, c.order) * harmonic_scale,
+                fourier.coefficient_std(c.throttle_brake_std, c.std_decay, c.order) * harmonic_scale,
             ]
         )  # (2, 2L+1): steering, throttle/brake
+        # eps -> coefficient noise: diag(std) as the paper samples, or its projection that leaves u(0) alone.
+        self._noise_map = (
+            np.stack([fourier.noise_with_fixed_start(std, c.pinned_level_share) for std in self.std])
+            if c.first_input_noise == "pinned"
+            else None
+        )
         self.rng = np.random.default_rng(seed)
         self._params_packed = kernels.pack_params(params)
         # Buffers allocated once: re-allocating (2L+1, S) and (7, S) arrays every step costs measurably.
         self._z = np.empty((2, c.coefficients, c.samples))
         self._noise = np.empty((2, c.coefficients, c.samples // 2 if c.antithetic else c.samples))
-        self._work = np.empty((7, c.samples))
+        self._scaled = np.empty_like(self._noise)
+        self._work = np.empty((9, c.samples))
         self._costs = np.empty(c.samples)
         self.mean = np.zeros((2, c.coefficients))
         self.optimum = self.mean
         self.previous_input = (0.0, 0.0)  # (delta, throttle/brake) applied last step, for J0's rate term
+        self.temperature = c.temperature
 
     def reset(self, mean: np.ndarray | None = None) -> None:
         """Forget the warm start (or set it: shape (2, 2L+1), steering then throttle/brake)."""
@@ -81,19 +98,23 @@ class FourierMPPI:
         self.optimum = self.mean
         """The weighted-mean coefficients of the last step (before the warm-start shift)."""
         self.previous_input = (0.0, 0.0)
+        self.temperature = self.config.temperature
 
     def sample(self) -> np.ndarray:
         """Draw coefficient samples around the mean into the buffer, shape (2, 2L+1, S)."""
         c = self.config
         z = self._z
+        self.rng.standard_normal(out=self._noise)
+        if self._noise_map is not None:
+            np.matmul(self._noise_map, self._noise, out=self._scaled)
+        else:
+            np.multiply(self._noise, self.std[:, :, None], out=self._scaled)
         if c.antithetic:
             half = c.samples // 2
-            self.rng.standard_normal(out=self._noise)
-            np.multiply(self._noise, self.std[:, :, None], out=z[:, :, :half])
-            np.negative(z[:, :, :half], out=z[:, :, half:])
+            z[:, :, :half] = self._scaled
+            np.negative(self._scaled, out=z[:, :, half:])
         else:
-            self.rng.standard_normal(out=self._noise)
-            np.multiply(self._noise, self.std[:, :, None], out=z)
+            z[...] = self._scaled
         if c.include_mean:
             z[:, :, 0] = 0.0
         z += self.mean[:, :, None]
@@ -131,15 +152,19 @@ class FourierMPPI:
         prepared = specification.prepare(self.context(state, surroundings))
         z = self.sample()
         costs, fast = self.costs(prepared, state, z)
-        weights, cost_min = self.weights(costs)
-        if weights is not None:
-            optimum = np.einsum("s,ics->ic", weights, z)
+        weighting = self.weights(costs, self.temperature)
+        if weighting.weights is not None:
+            optimum = np.einsum("s,ics->ic", weighting.weights, z)
+            self.temperature = weighting.temperature
         else:  # every sample's cost was NaN or infinite: keep the previous plan rather than average garbage
             optimum = self.mean
         self.optimum = optimum
         delta_now, ab_now = (float(v) for v in fourier.value_at_start(optimum))
         self.mean = self._shift(optimum) if self.config.warm_start == "shifted" else optimum
-        ess = float(1.0 / np.dot(weights, weights)) if weights is not None else 0.0
+        smoothing = self.config.input_smoothing
+        if smoothing:
+            delta_now = smoothing * self.previous_input[0] + (1.0 - smoothing) * delta_now
+            ab_now = smoothing * self.previous_input[1] + (1.0 - smoothing) * ab_now
         # Scalar saturations in plain Python: np.clip on scalars costs microseconds each.
         delta_now = min(max(delta_now, -STEER_LIMIT), STEER_LIMIT)
         ab_now = min(max(ab_now, -1.0), 1.0)
@@ -148,8 +173,10 @@ class FourierMPPI:
             delta=delta_now,
             throttle=max(ab_now, 0.0),
             brake=-min(ab_now, 0.0),
-            cost_min=cost_min,
-            effective_samples=ess,
+            cost_min=weighting.cost_min,
+            effective_samples=weighting.effective_samples,
+            effective_fraction=weighting.effective_samples / self.config.samples,
+            temperature=weighting.temperature,
             solve_ms=(time.perf_counter() - started) * 1e3,
             used_fast_path=fast,
         )
@@ -162,14 +189,31 @@ class FourierMPPI:
         rolled = self.rollouts(np.asarray(state, dtype=np.float64), z)
         return np.stack([rolled.x_m[:, 0], rolled.y_m[:, 0], rolled.phi_rad[:, 0], rolled.v_mps[:, 0]], axis=1)
 
-    def weights(self, costs: np.ndarray) -> tuple[np.ndarray | None, float]:
-        """Normalised MPPI weights exp(-(J - min J) / T) (sum 1), or None if no sample has a finite cost."""
+    def weights(self, costs: np.ndarray, temperature: float | None = None) -> Weighting:
+        """Normalised MPPI weights exp(-(J - min J) / T) (sum 1); ``weights`` is None if no sample has a
+        finite cost. ``temperature`` is where the ESS band's search starts (or the fixed T without a band)."""
+        c = self.config
+        temperature = c.temperature if temperature is None else temperature
         finite = np.isfinite(costs)
         if not finite.any():
-            return None, float("inf")
-        if not finite.all():
-            costs = np.where(finite, costs, np.inf)
-        cost_min = float(costs.min())
-        weights = np.exp(-(costs - cost_min) / self.config.temperature)
+            return Weighting(None, float("inf"), temperature, 0.0)
+        cost_min = float(costs[finite].min())
+        shifted = np.where(finite, costs - cost_min, np.inf) if not finite.all() else costs - cost_min
+        if c.elite_samples is not None and c.elite_samples < len(shifted):
+            shifted[np.argpartition(shifted, c.elite_samples)[c.elite_samples:]] = np.inf
+        if c.ess_band is not None:
+            low, high = c.ess_band
+            temperature, _ = kernels.temperature_for_band(shifted, temperature, low * len(costs), high * len(costs))
+        weights = np.exp(-shifted / temperature)
         weights /= weights.sum()
-        return weights, cost_min
+        return Weighting(weights, cost_min, float(temperature), float(1.0 / np.dot(weights, weights)))
+
+
+@dataclass(frozen=True, slots=True)
+class Weighting:
+    """One step's sample weights and how they came about."""
+
+    weights: np.ndarray | None
+    cost_min: float
+    temperature: float
+    effective_samples: float

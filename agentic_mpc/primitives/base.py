@@ -112,7 +112,8 @@ class FusedArrays(NamedTuple):
     lateral_sign: FloatArray  # (n, 3): sign, weight per stage on min(0, sign*e_lat + dead zone)^2, dead zone
     lateral_ref: FloatArray  # (n, H, 2)
     lateral_tan: FloatArray  # (n, H, 2)
-    limits: FloatArray  # (7,): steer weight, throttle/brake weight, v_max, speed weight, rate weight, previous delta, previous ab
+    limits: FloatArray  # (10,): steer weight, throttle/brake weight, v_max, speed weight, rate weight, previous delta,
+    # previous ab, steering smoothness weight, throttle/brake smoothness weight, brake effort weight
     disc_centres: FloatArray  # (n_discs, H, 2)
     disc_params: FloatArray  # (n_discs, 2): (clearance radius)^2, weight per stage
     edge_ref: FloatArray  # (n_edges, H, 2) points on the road edges
@@ -129,7 +130,7 @@ class FusedTerms:
     circles: list[tuple[float, float, float, float]] = field(default_factory=list)
     steer_sign: list[tuple[float, float]] = field(default_factory=list)
     lateral: list[tuple[float, float, float, FloatArray, FloatArray]] = field(default_factory=list)
-    limits: tuple[float, float, float, float, float, float, float] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0)
+    limits: tuple[float, ...] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     discs: list[tuple[FloatArray, float, float]] = field(default_factory=list)
     edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
 

@@ -4,7 +4,9 @@
   so without this the sampling mean could drift deep into saturation where every sample looks the same);
 - a speed limit;
 - other road users: discs predicted over the horizon (``Surroundings.moving_discs``);
-- road edges (``Surroundings.road_left_edge`` / ``road_right_edge``).
+- road edges (``Surroundings.road_left_edge`` / ``road_right_edge``);
+- smoothness of the planned inputs: a plan whose throttle/brake jumps from stage to stage costs more, so the
+  weighted average of smooth plans is smooth (docs/cost-design.md).
 
 Every term is a stage mean over the horizon (divided by H), so weights do not depend on the horizon.
 """
@@ -44,6 +46,15 @@ class Mandatory(Primitive):
     input_rate_weight: float = Field(
         0.0, ge=0, description="on the change of the first input from the previous step's (anti-chatter)"
     )
+    steer_smoothness_weight: float = Field(
+        10.0, ge=0, description="per stage, on the planned steering's step (delta_cmd(k) - delta_cmd(k-1))^2"
+    )
+    throttle_brake_smoothness_weight: float = Field(
+        1000.0, ge=0, description="per stage, on the planned throttle/brake's step (ab_cmd(k) - ab_cmd(k-1))^2"
+    )
+    brake_effort_weight: float = Field(
+        1.0, ge=0, description="per stage, on brake^2: no harder braking than needed, and a stopped car lets go"
+    )
     road_edge_weight: float = Field(50.0, ge=0, description="per stage, on (margin - distance inside edge)^2")
     road_edge_margin_m: float = Field(1.0, ge=0, description="how far the ego's centre keeps from a road edge")
 
@@ -73,6 +84,9 @@ class PreparedMandatory:
         previous_delta, previous_ab = self.previous_input
         first_ab = np.clip(r.ab_command[0], -1.0, 1.0)
         total += p.input_rate_weight * ((r.delta[0] - previous_delta) ** 2 + (first_ab - previous_ab) ** 2)
+        total += p.steer_smoothness_weight / h * np.sum(np.diff(r.delta_command, axis=0) ** 2, axis=0)
+        total += p.throttle_brake_smoothness_weight / h * np.sum(np.diff(r.ab_command, axis=0) ** 2, axis=0)
+        total += p.brake_effort_weight / h * np.sum(r.brake**2, axis=0)
         for disc in self.discs:
             d2 = (r.x_m - disc.centres[:, 0:1]) ** 2 + (r.y_m - disc.centres[:, 1:2]) ** 2
             r2 = disc.radius_m**2
@@ -95,6 +109,9 @@ class PreparedMandatory:
             p.speed_limit_weight / h,
             p.input_rate_weight,
             *self.previous_input,
+            p.steer_smoothness_weight / h,
+            p.throttle_brake_smoothness_weight / h,
+            p.brake_effort_weight / h,
         )
         for disc in self.discs:
             terms.discs.append((disc.centres, disc.radius_m, p.vehicle_clearance_weight / h))

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from agentic_mpc.primitives import PathTracking, Specification
+from agentic_mpc.scenario.comfort import add_motion_columns, comfort_summary
 from agentic_mpc.scenario.metrics import MetricsRecorder, ObstacleTrack, summarise
 from agentic_mpc.world.base import World
 from agentic_mpc.world.observation import Observation
@@ -89,9 +90,12 @@ class RunRecorder:
             "sumo_speed_mps": ego.speed_mps, "lane_id": ego.lane_id, "lane_index": ego.lane_index,
             "lane_role": ego.lane_role, "road_s_m": ego.road_s_m, "lateral_offset_m": ego.lateral_offset_m,
             "spec_version": outcome.version, "spec_summary": outcome.specification.summary(),
-            "cost_min": out.cost_min, "effective_samples": out.effective_samples, "solve_ms": out.solve_ms,
+            "cost_min": out.cost_min, "effective_samples": out.effective_samples,
+            "effective_fraction": out.effective_fraction, "temperature": out.temperature, "solve_ms": out.solve_ms,
             "step_ms": outcome.step_ms, "vehicles_in_range": len(before.traffic), "discs": outcome.discs,
             "collisions": sum(1 for c in before.collisions if c.involves_ego),
+            "gap_ahead_m": min((v.gap_m for v in before.traffic if v.relative_lane == 0 and v.relation == "ahead"),
+                               default=float("nan")),
         }
         tracking = outcome.specification.get("path_tracking")
         if isinstance(tracking, PathTracking):
@@ -135,7 +139,7 @@ class RunRecorder:
         """Write the run's CSV files; returns the summary row (``identity`` first, then the metrics)."""
         import pandas as pd
 
-        trajectory = pd.DataFrame(self.trajectory_rows)
+        trajectory = add_motion_columns(pd.DataFrame(self.trajectory_rows))
         trajectory.to_csv(out_dir / "trajectory.csv", index=False)
         pd.DataFrame(self.traffic_rows, columns=list(TRAFFIC_COLUMNS)).to_csv(out_dir / "traffic.csv", index=False)
         if self.plan_rows:
@@ -152,6 +156,7 @@ class RunRecorder:
             summarise(trajectory, self.metrics, goal_s_m=self.world.goal_s_m,
                       agent_tool_calls=int((events["event"] == "tool_call").sum()) if len(events) else 0)
         )
+        summary.update(comfort_summary(trajectory, [track.road_s_m for track in self.metrics.obstacles]))
         summary["wall_s"] = round(wall_s, 3)
         pd.DataFrame([summary]).to_csv(out_dir / "summary.csv", index=False)
         pd.DataFrame(

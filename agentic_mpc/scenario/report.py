@@ -9,6 +9,9 @@ import pandas as pd
 
 def variant_table(summary: pd.DataFrame) -> pd.DataFrame:
     """One row per scenario and variant: runs, outcomes, and the means of the main metrics."""
+    for column in ("accel_rms_mps2", "cruise_accel_rms_mps2", "ess_median_fraction"):  # older summaries lack them
+        if column not in summary:
+            summary = summary.assign(**{column: float("nan")})
     grouped = summary.groupby(["scenario", "variant"], sort=False)
     table = grouped.agg(
         runs=("seed", "count"),
@@ -21,6 +24,9 @@ def variant_table(summary: pd.DataFrame) -> pd.DataFrame:
         ambulance_delay_s=("ambulance_delay_s", "mean"),
         mean_speed_mps=("mean_speed_mps", "mean"),
         lane_rms_error_m=("lane_rms_error_m", "mean"),
+        accel_rms_mps2=("accel_rms_mps2", "mean"),
+        cruise_accel_rms_mps2=("cruise_accel_rms_mps2", "mean"),
+        ess_share=("ess_median_fraction", "median"),
         tool_calls=("agent_tool_calls", "mean"),
         controller_ms=("controller_ms_median", "median"),
     )

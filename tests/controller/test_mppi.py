@@ -59,8 +59,8 @@ def test_fast_path_equals_reference(name, horizon, samples):
     assert used_fast
     reference = prepared.cost(controller.rollouts(state, z))
     assert np.allclose(fast, reference, rtol=1e-10, atol=1e-10)
-    weights_fast, _ = controller.weights(fast.copy())
-    weights_ref, _ = controller.weights(reference)
+    weights_fast = controller.weights(fast.copy()).weights
+    weights_ref = controller.weights(reference).weights
     assert np.allclose(np.einsum("s,ics->ic", weights_fast, z), np.einsum("s,ics->ic", weights_ref, z), atol=1e-10)
 
 
@@ -108,10 +108,11 @@ def test_nan_state_is_refused_with_a_clear_error():
 
 def test_weights_survive_non_finite_costs():
     controller = FourierMPPI()
-    weights, cost_min = controller.weights(np.array([np.inf, 3.0, np.nan, 4.0]))
+    weighting = controller.weights(np.array([np.inf, 3.0, np.nan, 4.0]))
+    weights = weighting.weights
     assert weights is not None and np.isclose(weights.sum(), 1.0) and weights[0] == 0 and weights[2] == 0
-    assert cost_min == 3.0
-    assert controller.weights(np.array([np.nan, np.inf]))[0] is None
+    assert weighting.cost_min == 3.0
+    assert controller.weights(np.array([np.nan, np.inf])).weights is None
 
 
 def test_config_is_validated():
