@@ -384,7 +384,7 @@ def test_soak_fuzz_and_fifty_clients(tmp_path):
     assert not failures, failures[:10]
     assert "Traceback" not in stderr and "ERROR" not in stderr, stderr[-3000:]
     assert stats["fuzz"] >= FUZZ_REQUESTS and stats["fuzz_5xx"] == 0
-    assert stats["reads"] > 500 and stats["accepted"] > 100 and stats["accepted"] + stats["limited"] == stats["calls"]
+    assert stats["reads"] > 20 * LOAD_S and stats["accepted"] > 5 * LOAD_S and stats["accepted"] + stats["limited"] == stats["calls"]
     # the car keeps a valid specification: one of the speeds the clients asked for, never a fuzzed one
     assert any(f"v_ref_mps={v:g}" in extra["spec"]["summary"] for v in VALID_SPEEDS), extra["spec"]["summary"]
     # the simulation kept its pace (real time) under load

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+
 import numpy as np
 import pytest
 
@@ -148,11 +151,18 @@ def test_ego_resumes_the_centre_lane_after_the_ambulance_passed(report):
 
 
 @pytest.mark.slow
+def hold_and_yield(seeds: range) -> list[tuple[dict, dict]]:
+    """Scenario 2 held and yielded for each seed, in this process (one simulation after the other)."""
+    return [(run_scenario2(True, None, seed=seed), run_scenario2(True, "left", seed=seed)) for seed in seeds]
+
+
 def test_yielding_helps_the_ambulance_over_ten_seeds(report):
+    # two processes, five seeds each (libsumo runs one simulation at a time per process)
+    context = multiprocessing.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=2, mp_context=context, max_tasks_per_child=1) as pool:
+        pairs = [pair for chunk in pool.map(hold_and_yield, [range(0, 10, 2), range(1, 10, 2)]) for pair in chunk]
     holds, yields = [], []
-    for seed in range(10):
-        hold = run_scenario2(True, None, seed=seed)
-        give_way = run_scenario2(True, "left", seed=seed)
+    for hold, give_way in pairs:
         assert hold["collisions"] == [] and give_way["collisions"] == []
         assert give_way["ego_lane"] == "left" and give_way["relation_at_mark"] == "ahead"
         assert hold["relation_at_mark"] == "behind"
