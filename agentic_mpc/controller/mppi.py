@@ -81,7 +81,7 @@ class FourierMPPI:
         )
         self.rng = np.random.default_rng(seed)
         self._params_packed = kernels.pack_params(params)
-        # Buffers allocated once: re-allocating (2L+1, S) and (7, S) arrays every step costs measurably.
+        # Buffers allocated once: re-allocating (2L+1, S) and (9, S) arrays every step costs measurably.
         self._z = np.empty((2, c.coefficients, c.samples))
         self._noise = np.empty((2, c.coefficients, c.samples // 2 if c.antithetic else c.samples))
         self._scaled = np.empty_like(self._noise)
