@@ -3,8 +3,9 @@
 A new user message (typed, or generated from an observation) starts an agent step: it is appended to the
 history, the backend answers with text and tool calls, each call goes to the MCP server and its result is
 appended, and the backend is asked again, until it answers without tool calls; then the agent idles until
-the next message. The system message (tau = 0) holds the initially attached primitives and the tools, so
-the agent can restore the original specification.
+the next message. The system message (tau = 0) holds the road (``sumo://road``: lanes, handedness, what
+yielding and resuming mean), the initially attached primitives and the tools, so the agent can restore the
+original specification.
 
 The agent talks to the controller ONLY through the MCP server, with ``mcp.Client``: in-process by default
 (pass the ``MCPServer``, or any object with an ``mcp_server`` attribute holding one), or a server in another
@@ -40,7 +41,6 @@ valid specification.
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import math
 import threading
@@ -53,12 +53,12 @@ from mcp import Client
 from pydantic import BaseModel, ConfigDict, Field
 
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
-from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target
+from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resource
 from agentic_mpc.agent.messages import Message, MessageHistory, Source, ToolCall
 from agentic_mpc.agent.prompt import system_prompt
 from agentic_mpc.agent.report import StepReport
 from agentic_mpc.agent.transcript import Transcript
-from agentic_mpc.mcp.protocol import APPLY_AT_META_KEY, INITIAL_SPECIFICATION_URI, validate_arguments
+from agentic_mpc.mcp.protocol import APPLY_AT_META_KEY, INITIAL_SPECIFICATION_URI, ROAD_URI, validate_arguments
 
 logger = logging.getLogger(__name__)
 
@@ -228,17 +228,13 @@ class Agent:
         self.tools = tuple(ToolSpec(t.name, t.description or "", dict(t.input_schema)) for t in listed.tools)
         if not self.tools:
             raise AgentError("the MCP server lists no tools")
-        initial: dict[str, Any] | None = None
-        try:
-            read = await client.read_resource(INITIAL_SPECIFICATION_URI)
-            initial = json.loads(read.contents[0].text)  # type: ignore[union-attr]
-        except Exception as error:  # a server without it still works; the agent just cannot restore
-            logger.warning("could not read %s: %s", INITIAL_SPECIFICATION_URI, error)
+        initial = await read_json_resource(client, INITIAL_SPECIFICATION_URI)  # None: the agent cannot restore
+        road = await read_json_resource(client, ROAD_URI, missing=logging.INFO)  # None: an older server
         system = self.history.append(
             Message(
                 "system",
-                system_prompt(initial, self.tools, self.config.system_prompt_extra),
-                data={"initial_specification": initial, "tools": [t.to_openai() for t in self.tools]},
+                system_prompt(initial, self.tools, self.config.system_prompt_extra, road=road),
+                data={"initial_specification": initial, "road": road, "tools": [t.to_openai() for t in self.tools]},
                 sim_time_s=self._now(None),
             )
         )

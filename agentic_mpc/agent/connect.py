@@ -1,7 +1,9 @@
-"""What the agent's ``mcp.Client`` connects to, and how it introduces itself."""
+"""What the agent's ``mcp.Client`` connects to, how it introduces itself, and how it reads a JSON resource."""
 
 from __future__ import annotations
 
+import json
+import logging
 import os
 from collections.abc import Mapping
 from typing import Any
@@ -9,6 +11,8 @@ from typing import Any
 from mcp_types import Implementation
 
 from agentic_mpc import __version__
+
+logger = logging.getLogger(__name__)
 
 CLIENT_INFO = Implementation(name="agentic-mpc-agent", version=__version__)
 """How the agent introduces itself to the MCP server (the ``client`` of its calls in ``events.csv``)."""
@@ -31,3 +35,18 @@ def mcp_target(server: Any, headers: Mapping[str, str], bearer_token_env: str | 
     from mcp.shared._httpx_utils import create_mcp_http_client
 
     return streamable_http_client(server, http_client=create_mcp_http_client(headers=sent))
+
+
+async def read_json_resource(client: Any, uri: str, missing: int = logging.WARNING) -> dict[str, Any] | None:
+    """The JSON object the MCP resource ``uri`` holds, or None (logged at level ``missing``) if the server
+    has no such resource or its content is not a JSON object: an older server still works without it."""
+    try:
+        read = await client.read_resource(uri)
+        value = json.loads(read.contents[0].text)
+    except Exception as error:  # noqa: BLE001 - any failure means "not available"
+        logger.log(missing, "could not read %s: %s", uri, error)
+        return None
+    if not isinstance(value, dict):
+        logger.log(missing, "%s is not a JSON object", uri)
+        return None
+    return value

@@ -1,5 +1,7 @@
 """The agent's system message (tau = 0): its role, (A) the initially attached primitives and (B) the tools,
-as in the paper's "Agent Setup", so that the agent can restore the original specification."""
+as in the paper's "Agent Setup", so that the agent can restore the original specification; then the road
+(from the server's ``sumo://road``: lanes, handedness, edge lane, speed limit, what yielding and resuming
+mean there). Without a road (an older server) the message says nothing about it."""
 
 from __future__ import annotations
 
@@ -32,8 +34,48 @@ def _describe_tool(tool: ToolSpec) -> str:
     return f"- {tool.name}({', '.join(args)}): {tool.description}"
 
 
-def system_prompt(initial: dict[str, Any] | None, tools: Sequence[ToolSpec], extra: str = "") -> str:
-    """The system message: role, (A) the initially attached primitives, (B) the tools (paper, "Agent Setup")."""
+def _text(value: Any) -> str:
+    return value.strip() if isinstance(value, str) else ""
+
+
+def _number(value: Any) -> float | None:
+    return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+
+
+def describe_road(road: dict[str, Any] | None) -> list[str]:
+    """The road section of the system message from ``sumo://road`` JSON; no lines if there is none or it
+    is not understood (then the model knows nothing of the road, as before the resource existed)."""
+    if not isinstance(road, dict) or not isinstance(road.get("lanes"), list):
+        return []
+    facts = []
+    if traffic := _text(road.get("traffic")):
+        keep_to = _text(road.get("keep_to"))
+        facts.append(f"{traffic} traffic" + (f" (vehicles keep to the {keep_to})" if keep_to else ""))
+    if (limit := _number(road.get("speed_limit_mps"))) is not None:
+        facts.append(f"speed limit {limit:g} m/s ({limit * 3.6:g} km/h)")
+    head = f"The road: {'; '.join(facts)}." if facts else "The road."
+    lines = [head, "Lanes (by the names the tools use), from the road edge outwards:"]
+    for lane in road["lanes"]:
+        if not isinstance(lane, dict) or not _text(lane.get("name")):
+            continue
+        facts = [f"index {lane['index']}" if _number(lane.get("index")) is not None else "",
+                 _text(lane.get("tool"))]
+        detail = ", ".join(fact for fact in facts if fact)
+        role = _text(lane.get("role"))
+        lines.append(f"- {_text(lane['name'])} lane{f' ({detail})' if detail else ''}{f': {role}' if role else ''}")
+    if len(lines) == 2:
+        return []
+    if edge := _text(road.get("edge_lane")):
+        lines.append(f"The edge lane is the {edge} lane.")
+    lines += [text for key in ("yield", "resume") if (text := _text(road.get(key)))]
+    return lines
+
+
+def system_prompt(
+    initial: dict[str, Any] | None, tools: Sequence[ToolSpec], extra: str = "", road: dict[str, Any] | None = None
+) -> str:
+    """The system message: role, (A) the initially attached primitives, (B) the tools (paper, "Agent Setup"),
+    then the road (``sumo://road``, if given)."""
     lines = [
         "You are the driving agent of an autonomous car. A model predictive controller drives the car; its "
         "control specification is a sum of primitive objective functions. You change the specification only "
@@ -45,6 +87,8 @@ def system_prompt(initial: dict[str, Any] | None, tools: Sequence[ToolSpec], ext
     attached = (initial or {}).get("attached", [])
     lines += [_describe_primitive(p) for p in attached if p.get("kind") != "mandatory"] or ["- (unknown)"]
     lines += ["", "Available tools:"] + [_describe_tool(t) for t in tools]
+    if road_lines := describe_road(road):  # last: what a small model reads just before the passenger's message
+        lines += ["", *road_lines]
     if extra:
         lines += ["", extra]
     return "\n".join(lines)

@@ -4,7 +4,8 @@ A client that knows this module needs nothing of the server's implementation:
 
 - the resource URIs the server registers, all JSON: the observation resources (:data:`EGO_URI`,
   :data:`TRAFFIC_URI`, :data:`EMERGENCY_VEHICLES_URI`, :data:`OBSTACLES_URI`, together
-  :data:`OBSERVATION_URIS`), one road user by id (:data:`VEHICLE_URI_TEMPLATE`), the specification attached
+  :data:`OBSERVATION_URIS`), one road user by id (:data:`VEHICLE_URI_TEMPLATE`), the road (:data:`ROAD_URI`:
+  lanes, handedness, edge lane, speed limit, what yielding and resuming mean), the specification attached
   now (:data:`SPECIFICATION_URI`), the one the car started with (:data:`INITIAL_SPECIFICATION_URI`) and the
   primitive pool (:data:`POOL_URI`);
 - :data:`APPLY_AT_META_KEY`, the ``tools/call`` request ``_meta`` key that schedules a change at a sim time;
@@ -34,6 +35,10 @@ OBSERVATION_URIS = (EGO_URI, TRAFFIC_URI, EMERGENCY_VEHICLES_URI, OBSTACLES_URI)
 """The resources read from the world's latest observation; updated as the simulation advances."""
 VEHICLE_URI_TEMPLATE = "sumo://vehicle/{vehicle_id}"
 """One road user by id (the ego is ``ego``)."""
+ROAD_URI = "sumo://road"
+"""The ego's road: its lanes (``left``/``center``/``right`` as the tools name them, SUMO index, role),
+``traffic`` (``left-hand`` or ``right-hand``), ``edge_lane`` (where to pull over to yield), ``speed_limit_mps``,
+and one plain-English sentence each on what ``yield`` and ``resume`` mean there (see mcp/road.py)."""
 
 SPECIFICATION_URI = "mpc://specification"
 """The specification attached now, its version and the pending scheduled changes."""

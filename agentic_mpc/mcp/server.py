@@ -11,7 +11,8 @@ scheduled, the one that will be). Arguments are checked against the published sc
 unknown arguments, wrong types, out-of-range and non-finite numbers are refused.
 
 Resources (JSON): ``sumo://ego``, ``sumo://traffic``, ``sumo://emergency-vehicles``, ``sumo://obstacles``
-(from the world's latest observation), ``sumo://vehicle/{vehicle_id}`` (one road user by id),
+(from the world's latest observation), ``sumo://vehicle/{vehicle_id}`` (one road user by id), ``sumo://road``
+(lanes, handedness, edge lane, speed limit, what yielding and resuming mean: :mod:`agentic_mpc.mcp.road`),
 ``mpc://specification`` (attached now, version, pending scheduled changes), ``mpc://specification/initial``
 and ``mpc://pool`` (every primitive family and its parameters). A client that listens
 (``subscriptions/listen``) gets ``ResourceUpdated`` events as the simulation advances (observation URIs at
@@ -81,10 +82,12 @@ from agentic_mpc.mcp.protocol import (
     INITIAL_SPECIFICATION_URI,
     OBSTACLES_URI,
     POOL_URI,
+    ROAD_URI,
     SPECIFICATION_URI,
     TRAFFIC_URI,
     VEHICLE_URI_TEMPLATE,
 )
+from agentic_mpc.mcp.road import LaneIndex, describe_road
 from agentic_mpc.mcp.tools import ControllerTools, ToolCallError
 from agentic_mpc.primitives import Specification
 from agentic_mpc.primitives.pool import describe_pool
@@ -160,7 +163,8 @@ class AgenticMPCServer:
 
     :attr:`mcp_server` (also ``server``) is the SDK's ``MCPServer``: hand it to ``mcp.Client`` or run it (the
     agent accepts this object itself and connects to that attribute). Call :meth:`publish_observation` after
-    every simulation step (any thread) to notify listening clients.
+    every simulation step (any thread) to notify listening clients. ``lane_index`` (the world's
+    ``lane_index_of``) gives ``sumo://road`` the world's lane indices.
     """
 
     def __init__(
@@ -172,8 +176,10 @@ class AgenticMPCServer:
         max_speed_mps: float | None = None,
         publish_interval_s: float = 0.2,
         on_tool_call: ToolCallHook | None = None,
+        lane_index: LaneIndex | None = None,
     ) -> None:
         self.tools = tools
+        self.lane_index = lane_index
         self.latest_observation = latest_observation
         self.max_speed_mps = float(max_speed_mps if max_speed_mps is not None else tools.road().speed_limit_mps)
         if not (math.isfinite(self.max_speed_mps) and self.max_speed_mps > 0):
@@ -214,7 +220,8 @@ class AgenticMPCServer:
             "Tools and observations of an autonomous car driven by a model predictive controller (Fourier "
             "MPPI). The controller minimises a sum of attached primitive objectives; the tools attach or "
             "detach them. Speeds are in m/s (1 m/s = 3.6 km/h), between 0 and the road speed limit "
-            f"({self.max_speed_mps:g} m/s). Read {INITIAL_SPECIFICATION_URI} for the original specification."
+            f"({self.max_speed_mps:g} m/s). Read {INITIAL_SPECIFICATION_URI} for the original specification and "
+            f"{ROAD_URI} for the road (lanes, handedness, what yielding to an emergency vehicle means)."
         )
 
     def _tools(self) -> list[Tool]:
@@ -323,6 +330,13 @@ class AgenticMPCServer:
                     return _json({"time_s": obs.get("time_s"), "vehicle": candidate})
             known = sorted({str(c.get("id")) for c in candidates if c.get("id") is not None})
             raise ResourceNotFoundError(f"no road user {vehicle_id!r} in the simulation now (known: {known})")
+
+        @server.resource(ROAD_URI, name="road", description="The road: lanes (as the tools name them), handedness, "
+                         "edge lane, speed limit, what yielding and resuming mean.", mime_type="application/json")
+        def road() -> str:
+            tracking = slot.initial.get("path_tracking")
+            return _json(describe_road(self.tools.road(), getattr(tracking, "lane", None),
+                                       getattr(tracking, "v_ref_mps", None), self.lane_index))
 
         @server.resource(SPECIFICATION_URI, name="specification",
                          description="The control specification attached now, its version and pending changes.",

@@ -98,7 +98,8 @@ class RunLoop:
         self.slot.subscribe(self.recorder.specification_changed)
         self.tools = ControllerTools(self.slot, world.lanes, steering_template)
         self.server: AgenticMPCServer = build_server(
-            self.tools, lambda: world.observation.to_json(), **(server_options or {})
+            self.tools, lambda: world.observation.to_json(),
+            **{"lane_index": world.lane_index_of, **(server_options or {})},  # sumo://road: the world's lane indices
         )
         self.server.on_tool_call = self.recorder.tool_call_received  # who changed the specification
         self.detector = EmergencyDetector(settings.alert_distance_m)

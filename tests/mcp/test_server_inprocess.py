@@ -31,6 +31,7 @@ TOOL_NAMES = {
 }
 RESOURCES = {
     "sumo://ego",
+    "sumo://road",
     "sumo://traffic",
     "sumo://emergency-vehicles",
     "sumo://obstacles",

@@ -57,7 +57,7 @@ def test_stdio_client_lists_reads_calls_and_is_refused_out_of_range():
         "clear_preferred_steering_direction", "run_center_lane", "run_left_lane", "run_right_lane",
         "set_preferred_steering_direction", "set_reference_speed",
     ])
-    assert "sumo://traffic" in resources and "mpc://specification" in resources and len(resources) == 7
+    assert "sumo://traffic" in resources and "mpc://specification" in resources and len(resources) == 8
     assert templates == ["sumo://vehicle/{vehicle_id}"]
     # the simulation advances in real time between the two reads
     assert second["time_s"] - first["time_s"] == pytest.approx(0.5, abs=0.3)
