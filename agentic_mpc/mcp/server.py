@@ -10,7 +10,7 @@ Tools (arguments bounded by JSON schemas; anything else is an MCP tool error and
 scheduled, the one that will be). Arguments are checked against the published schema before the tool runs:
 unknown arguments, wrong types, out-of-range and non-finite numbers are refused.
 
-Resources (JSON): ``sumo://ego``, ``sumo://traffic``, ``sumo://emergency-vehicles``, ``sumo://obstacles``
+Resources (JSON, :mod:`agentic_mpc.mcp.resources`): ``sumo://ego``, ``sumo://traffic``, ``sumo://emergency-vehicles``, ``sumo://obstacles``
 (from the world's latest observation), ``sumo://vehicle/{vehicle_id}`` (one road user by id), ``sumo://road``
 (lanes, handedness, edge lane, speed limit, what yielding and resuming mean: :mod:`agentic_mpc.mcp.road`),
 ``mpc://specification`` (attached now, version, pending scheduled changes), ``mpc://specification/initial``
@@ -68,7 +68,7 @@ from typing import Annotated, Any, Literal
 
 import anyio.lowlevel
 from mcp.server.mcpserver import Context
-from mcp.server.mcpserver.exceptions import ResourceNotFoundError, ToolError
+from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.mcpserver.tools import Tool
 from mcp.server.subscriptions import ResourceUpdated, ServerEvent
 from mcp_types import CallToolResult, TextContent
@@ -81,21 +81,15 @@ from agentic_mpc.mcp.protocol import (
     EMERGENCY_VEHICLES_URI,
     INITIAL_SPECIFICATION_URI,
     OBSTACLES_URI,
-    POOL_URI,
     ROAD_URI,
     SPECIFICATION_URI,
     TRAFFIC_URI,
-    VEHICLE_URI_TEMPLATE,
 )
-from agentic_mpc.mcp.road import LaneIndex, describe_road
+from agentic_mpc.mcp.resources import ObservationSource, register_resources, to_json
+from agentic_mpc.mcp.road import LaneIndex
 from agentic_mpc.mcp.tools import ControllerTools, ToolCallError
-from agentic_mpc.primitives import Specification
-from agentic_mpc.primitives.pool import describe_pool
 
 logger = logging.getLogger(__name__)
-
-ObservationSource = Callable[[], dict[str, Any]]
-
 
 class ThreadSafeSubscriptionBus:
     """A ``SubscriptionBus`` that may be published to from any thread.
@@ -196,7 +190,7 @@ class AgenticMPCServer:
             log_level="WARNING",
         )
         self.server.on_tool_call = on_tool_call
-        self._register_resources()
+        register_resources(self.server, tools, latest_observation, lane_index)
         tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
 
     @property
@@ -287,75 +281,6 @@ class AgenticMPCServer:
             built.append(tool)
         return built
 
-    # ------------------------------------------------------------------ resources
-    def _register_resources(self) -> None:
-        server, slot = self.server, self.tools.slot
-
-        def observation() -> dict[str, Any]:
-            return self.latest_observation()
-
-        @server.resource(EGO_URI, name="ego", description="The ego vehicle: position, heading, speed, lane.",
-                         mime_type="application/json")
-        def ego() -> str:
-            obs = observation()
-            return _json({"time_s": obs.get("time_s"), "ego": obs.get("ego"), "collisions": obs.get("collisions", [])})
-
-        @server.resource(TRAFFIC_URI, name="traffic", description="Every other road user near the ego.",
-                         mime_type="application/json")
-        def traffic() -> str:
-            obs = observation()
-            return _json({"time_s": obs.get("time_s"), "vehicles": obs.get("traffic", [])})
-
-        @server.resource(EMERGENCY_VEHICLES_URI, name="emergency-vehicles",
-                         description="Emergency vehicles (ambulances, fire engines, police) near the ego.",
-                         mime_type="application/json")
-        def emergency_vehicles() -> str:
-            obs = observation()
-            return _json({"time_s": obs.get("time_s"), "emergency_vehicles": obs.get("emergency_vehicles", [])})
-
-        @server.resource(OBSTACLES_URI, name="obstacles", description="Static obstacles on the road.",
-                         mime_type="application/json")
-        def obstacles() -> str:
-            obs = observation()
-            return _json({"time_s": obs.get("time_s"), "obstacles": obs.get("obstacles", [])})
-
-        @server.resource(VEHICLE_URI_TEMPLATE, name="vehicle",
-                         description="One road user by id (the ego is 'ego').", mime_type="application/json")
-        def vehicle(vehicle_id: str) -> str:
-            obs = observation()
-            ego = obs.get("ego") or {}
-            candidates = [ego, *obs.get("traffic", []), *obs.get("emergency_vehicles", [])]
-            for candidate in candidates:
-                if str(candidate.get("id")) == vehicle_id:
-                    return _json({"time_s": obs.get("time_s"), "vehicle": candidate})
-            known = sorted({str(c.get("id")) for c in candidates if c.get("id") is not None})
-            raise ResourceNotFoundError(f"no road user {vehicle_id!r} in the simulation now (known: {known})")
-
-        @server.resource(ROAD_URI, name="road", description="The road: lanes (as the tools name them), handedness, "
-                         "edge lane, speed limit, what yielding and resuming mean.", mime_type="application/json")
-        def road() -> str:
-            tracking = slot.initial.get("path_tracking")
-            return _json(describe_road(self.tools.road(), getattr(tracking, "lane", None),
-                                       getattr(tracking, "v_ref_mps", None), self.lane_index))
-
-        @server.resource(SPECIFICATION_URI, name="specification",
-                         description="The control specification attached now, its version and pending changes.",
-                         mime_type="application/json")
-        def specification() -> str:
-            spec, version = slot.snapshot()
-            return _json({"version": version, **_spec_json(spec), "pending": self.tools.pending()})
-
-        @server.resource(INITIAL_SPECIFICATION_URI, name="initial-specification",
-                         description="The specification the car started with (restore it when a situation is over).",
-                         mime_type="application/json")
-        def initial_specification() -> str:
-            return _json(_spec_json(slot.initial))
-
-        @server.resource(POOL_URI, name="pool", description="Every primitive objective family and its parameters.",
-                         mime_type="application/json")
-        def pool() -> str:
-            return _json({"pool": describe_pool()})
-
     # ------------------------------------------------------------------ notifications
     def publish_observation(self, observation: dict[str, Any] | None = None) -> None:
         """Notify listeners that the observation resources changed (call after each step, from any thread).
@@ -389,26 +314,7 @@ def _run(call: Callable[[float | None], dict[str, Any]], ctx: Context) -> CallTo
         result = call(None if apply_at is None else float(apply_at))
     except ToolCallError as error:
         raise ToolError(str(error)) from None
-    return CallToolResult(content=[TextContent(type="text", text=_json(result))], structured_content=result)
-
-
-def _spec_json(spec: Specification) -> dict[str, Any]:
-    return {"summary": spec.summary(), "attached": spec.describe()}
-
-
-def _json(value: Any) -> str:
-    """Strict JSON: a non-finite number (a broken observation) becomes null instead of invalid ``NaN``."""
-    return json.dumps(_finite(value), default=str, allow_nan=False)
-
-
-def _finite(value: Any) -> Any:
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {key: _finite(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(item) for item in value]
-    return value
+    return CallToolResult(content=[TextContent(type="text", text=to_json(result))], structured_content=result)
 
 
 def build_server(

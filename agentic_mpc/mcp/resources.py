@@ -1,0 +1,119 @@
+"""The MCP resources of the simulation's server (JSON): what SUMO sees and what the controller is asked.
+
+``sumo://ego``, ``sumo://traffic``, ``sumo://emergency-vehicles``, ``sumo://obstacles`` are slices of the
+world's latest observation; ``sumo://vehicle/{vehicle_id}`` is one road user by id; ``sumo://road`` the
+road (:mod:`agentic_mpc.mcp.road`); ``mpc://specification``, ``mpc://specification/initial`` and
+``mpc://pool`` the controller's side.
+"""
+
+# No `from __future__ import annotations`: the SDK reads the resource functions' annotations at runtime.
+import json
+import math
+from collections.abc import Callable
+from typing import Any
+
+from mcp.server.mcpserver import MCPServer
+from mcp.server.mcpserver.exceptions import ResourceNotFoundError
+
+from agentic_mpc.mcp.protocol import (
+    EGO_URI,
+    EMERGENCY_VEHICLES_URI,
+    INITIAL_SPECIFICATION_URI,
+    OBSTACLES_URI,
+    POOL_URI,
+    ROAD_URI,
+    SPECIFICATION_URI,
+    TRAFFIC_URI,
+    VEHICLE_URI_TEMPLATE,
+)
+from agentic_mpc.mcp.road import LaneIndex, describe_road
+from agentic_mpc.mcp.tools import ControllerTools
+from agentic_mpc.primitives import Specification
+from agentic_mpc.primitives.pool import describe_pool
+
+ObservationSource = Callable[[], dict[str, Any]]
+
+OBSERVATION_SLICES = (
+    # uri, name, description, {key in the resource: key in the observation}
+    (EGO_URI, "ego", "The ego vehicle: position, heading, speed, lane.", {"ego": "ego", "collisions": "collisions"}),
+    (TRAFFIC_URI, "traffic", "Every other road user near the ego.", {"vehicles": "traffic"}),
+    (EMERGENCY_VEHICLES_URI, "emergency-vehicles",
+     "Emergency vehicles (ambulances, fire engines, police) near the ego.", {"emergency_vehicles": "emergency_vehicles"}),
+    (OBSTACLES_URI, "obstacles", "Static obstacles on the road.", {"obstacles": "obstacles"}),
+)
+_LISTS = {"traffic", "emergency_vehicles", "obstacles", "collisions"}
+"""Observation keys that are lists: an observation without them reads as empty, not null."""
+
+
+def register_resources(server: MCPServer, tools: ControllerTools, latest_observation: ObservationSource,
+                       lane_index: LaneIndex | None = None) -> None:
+    """Register every resource on ``server``."""
+    slot = tools.slot
+    for uri, name, description, keys in OBSERVATION_SLICES:
+        server.resource(uri, name=name, description=description, mime_type="application/json")(
+            _observation_slice(latest_observation, keys)
+        )
+
+    @server.resource(VEHICLE_URI_TEMPLATE, name="vehicle",
+                     description="One road user by id (the ego is 'ego').", mime_type="application/json")
+    def vehicle(vehicle_id: str) -> str:
+        obs = latest_observation()
+        candidates = [obs.get("ego") or {}, *obs.get("traffic", []), *obs.get("emergency_vehicles", [])]
+        for candidate in candidates:
+            if str(candidate.get("id")) == vehicle_id:
+                return to_json({"time_s": obs.get("time_s"), "vehicle": candidate})
+        known = sorted({str(c.get("id")) for c in candidates if c.get("id") is not None})
+        raise ResourceNotFoundError(f"no road user {vehicle_id!r} in the simulation now (known: {known})")
+
+    @server.resource(ROAD_URI, name="road", description="The road: lanes (as the tools name them), handedness, "
+                     "edge lane, speed limit, what yielding and resuming mean.", mime_type="application/json")
+    def road() -> str:
+        tracking = slot.initial.get("path_tracking")
+        return to_json(describe_road(tools.road(), getattr(tracking, "lane", None),
+                                     getattr(tracking, "v_ref_mps", None), lane_index))
+
+    @server.resource(SPECIFICATION_URI, name="specification",
+                     description="The control specification attached now, its version and pending changes.",
+                     mime_type="application/json")
+    def specification() -> str:
+        spec, version = slot.snapshot()
+        return to_json({"version": version, **specification_json(spec), "pending": tools.pending()})
+
+    @server.resource(INITIAL_SPECIFICATION_URI, name="initial-specification",
+                     description="The specification the car started with (restore it when a situation is over).",
+                     mime_type="application/json")
+    def initial_specification() -> str:
+        return to_json(specification_json(slot.initial))
+
+    @server.resource(POOL_URI, name="pool", description="Every primitive objective family and its parameters.",
+                     mime_type="application/json")
+    def pool() -> str:
+        return to_json({"pool": describe_pool()})
+
+
+def _observation_slice(latest_observation: ObservationSource, keys: dict[str, str]) -> Callable[[], str]:
+    def read() -> str:
+        obs = latest_observation()
+        return to_json({"time_s": obs.get("time_s"),
+                        **{out: obs.get(key, [] if key in _LISTS else None) for out, key in keys.items()}})
+
+    return read
+
+
+def specification_json(spec: Specification) -> dict[str, Any]:
+    return {"summary": spec.summary(), "attached": spec.describe()}
+
+
+def to_json(value: Any) -> str:
+    """Strict JSON: a non-finite number (a broken observation) becomes null instead of invalid ``NaN``."""
+    return json.dumps(_finite(value), default=str, allow_nan=False)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(item) for item in value]
+    return value
