@@ -16,7 +16,13 @@ start the server themselves; nothing but MCP goes to stdout, logs go to stderr) 
 is not the server's own (or one given with ``--allow-host`` / ``--allow-origin``) is refused; a bearer token
 (``AGENTIC_MPC_TOKEN``, ``--token-file`` or ``--generate-token``, never on the command line) is required
 when one is configured, and always for a bind that is not loopback; tool calls are rate limited per client
-(``--rate-limit``). See :mod:`agentic_mpc.mcp.server` for the tools, resources
+(``--rate-limit``).
+
+``--view`` (HTTP only) adds a live page at ``http://HOST:PORT/``: the replay's bird's-eye view as the run goes,
+the specification, messages and tool calls, and a chat box whose messages go to the run's own agent (the
+scenario's backend, in realtime mode: the car never waits for it) while MCP hosts can still connect at
+``/mcp``. With a token, open ``http://HOST:PORT/?token=...`` once (it becomes a cookie). See
+:mod:`agentic_mpc.replay.live_app`. See :mod:`agentic_mpc.mcp.server` for the tools, resources
 and host configuration, e.g. Claude Desktop::
 
     {"mcpServers": {"agentic-mpc": {"command": "agentic-mpc", "args": ["serve", "--transport", "stdio"]}}}
@@ -53,7 +59,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="scenario YAML to run (default: scenarios/plain_world_traffic.yaml, no SUMO)")
     parser.add_argument("--variant", default=None, help="with SCENARIO: the variant (default: the base scenario)")
     parser.add_argument("--out", type=Path, default=None, help="with SCENARIO: where the run's files go")
-    parser.add_argument("--transport", choices=("stdio", "http"), default="stdio")
+    parser.add_argument("--transport", choices=("stdio", "http"), default=None,
+                        help="stdio (default) or http (the default with --view)")
+    parser.add_argument("--view", action="store_true",
+                        help="http: a live page at / with the bird's-eye view and a chat box to the run's agent")
     parser.add_argument("--host", default="127.0.0.1", help="http: interface to listen on")
     parser.add_argument("--port", type=int, default=8765, help="http: port (the endpoint is /mcp)")
     parser.add_argument("--allow-host", action="append", default=[], metavar="HOST[:PORT]",
@@ -80,6 +89,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     # stdout belongs to the MCP protocol on stdio: everything else goes to stderr.
     logging.basicConfig(level=args.log_level, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s")
+    if args.transport is None:
+        args.transport = "http" if args.view else "stdio"
+    if args.view and args.transport != "http":
+        print("error: --view needs --transport http (the page is served next to the MCP endpoint)", file=sys.stderr)
+        return 2
     if args.time_scale <= 0:
         print("error: --time-scale must be positive", file=sys.stderr)
         return 2
@@ -133,7 +147,7 @@ def _token(args: argparse.Namespace) -> str | None:
     return from_env
 
 
-def _serve(server: object, args: argparse.Namespace, listening: object = None) -> None:
+def _serve(server: object, args: argparse.Namespace, listening: object = None, routes: list | None = None) -> None:
     if args.transport == "stdio":
         server.mcp_server.run("stdio")  # type: ignore[attr-defined]
         return
@@ -148,8 +162,11 @@ def _serve(server: object, args: argparse.Namespace, listening: object = None) -
     auth = "bearer token required" if args.token else "no token (loopback only)"
     print(f"MCP server at http://{args.host}:{args.port}/mcp ({auth}; at most {args.rate_limit:g} tool calls/s "
           "per client)", file=sys.stderr, flush=True)
+    if routes:
+        login = "?token=<token>" if args.token else ""
+        print(f"live view at http://{args.host}:{args.port}/{login}", file=sys.stderr, flush=True)
     serve_http(server.mcp_server, listening, args.host, args.port, token=args.token,  # type: ignore[attr-defined]
-               allow_hosts=args.allow_host, allow_origins=args.allow_origin)
+               allow_hosts=args.allow_host, allow_origins=args.allow_origin, extra_routes=routes or ())
 
 
 def _interrupt(signum: int, frame: object) -> None:
@@ -173,8 +190,10 @@ def serve_scenario(args: argparse.Namespace, listening: object = None) -> int:
         scenario = scenario.with_seed(args.seed)
     if args.duration_s is not None:
         scenario = scenario.model_copy(update={"duration_s": args.duration_s})
+    if args.view:  # the page's chat reaches the run's own agent, which must never hold up the car
+        scenario = scenario.model_copy(update={"agent": scenario.agent.model_copy(update={"mode": "realtime"})})
     out = args.out or Path("out") / "serve" / scenario.name / scenario.variant / f"seed-{scenario.seed}"
-    run = ScenarioRun(scenario, out, embedded_agent=False, pace=args.time_scale,
+    run = ScenarioRun(scenario, out, embedded_agent=args.view, pace=args.time_scale,
                       server_options={"publish_interval_s": args.publish_interval_s})
     simulation = threading.Thread(target=_run_quietly, args=(run,), name="simulation", daemon=True)
     simulation.start()  # libsumo stays on this one thread; MCP reads only the immutable observation
@@ -183,14 +202,44 @@ def serve_scenario(args: argparse.Namespace, listening: object = None) -> int:
         print(f"error: the scenario could not start: {run.error}", file=sys.stderr)
         return 1
     logging.getLogger(__name__).info("%s running in SUMO; MCP over %s; files to %s", scenario.name, args.transport, out)
+    routes = _live_view(run, scenario, simulation, args) if args.view else None
     try:
-        _serve(run.server, args, listening)
+        _serve(run.server, args, listening, routes)
     except KeyboardInterrupt:
         pass
     finally:
         run.stop.set()
         simulation.join(timeout=30)
     return 0
+
+
+def _live_view(run: object, scenario: object, simulation: threading.Thread, args: argparse.Namespace) -> list:
+    """The live page's routes over ``run`` (see :mod:`agentic_mpc.replay.live_app`)."""
+    import json
+
+    from agentic_mpc.mcp.http import RateLimiter, security_settings
+    from agentic_mpc.replay.live import LiveScene
+    from agentic_mpc.replay.live_app import LiveView
+
+    loop = run.loop  # type: ignore[attr-defined]
+
+    def deliver(text: str) -> float:
+        t = round(loop.world.time_s, 3)
+        report = loop.agent.deliver(text, sim_time_s=t)
+        if report.done() and report.result().ended == "rejected":
+            raise ValueError("; ".join(report.result().errors))
+        return t
+
+    def finished() -> str | None:
+        if simulation.is_alive():
+            return None
+        error = run.error  # type: ignore[attr-defined]
+        return f"failed: {error}" if error is not None else f"ended at {loop.world.time_s:.2f} s"
+
+    scene = LiveScene(loop, json.loads(scenario.model_dump_json()))  # type: ignore[attr-defined]
+    view = LiveView(scene, deliver, finished, security_settings(args.host, args.port, args.allow_host,
+                                                                 args.allow_origin), RateLimiter(rate=2.0, burst=5.0))
+    return view.routes()
 
 
 def _with_ambulance_at(scenario: object, at_s: float) -> object:

@@ -50,6 +50,8 @@ MAX_CONNECTIONS = 256
 MAX_SESSIONS = 128
 """Concurrent MCP sessions (each holds memory on the server)."""
 MIN_TOKEN_CHARS = 16
+COOKIE = "agentic_mpc_token"
+"""The cookie the live view's page keeps the bearer token in (see :class:`BearerTokenMiddleware`)."""
 
 _LOOPBACK_NAMES = {"localhost", "localhost.localdomain", "ip6-localhost"}
 
@@ -99,6 +101,14 @@ def check_bind(host: str, token: str | None) -> None:
         )
 
 
+def _cookie_value(header: bytes, name: bytes) -> bytes | None:
+    for part in header.split(b";"):
+        key, _, value = part.strip().partition(b"=")
+        if key == name:
+            return value.strip()
+    return None
+
+
 async def _send_json(send: Send, status: int, body: dict[str, Any], headers: Iterable[tuple[str, str]] = ()) -> None:
     payload = json.dumps(body).encode()
     raw = [(b"content-type", b"application/json"), (b"content-length", str(len(payload)).encode())]
@@ -108,26 +118,45 @@ async def _send_json(send: Send, status: int, body: dict[str, Any], headers: Ite
 
 
 class BearerTokenMiddleware:
-    """ASGI: every HTTP request must carry ``Authorization: Bearer <token>`` (401 otherwise)."""
+    """ASGI: every HTTP request must carry ``Authorization: Bearer <token>`` (401 otherwise).
+
+    A browser cannot add that header to a page it opens, so the live view's page also takes the token once
+    as ``/?token=...``: that request is answered with a redirect to ``/`` setting the token as an HttpOnly,
+    SameSite=Strict cookie (:data:`COOKIE`), which later requests may carry instead of the header."""
 
     def __init__(self, app: ASGIApp, token: str) -> None:
         self.app = app
         self._token = token.encode()
 
+    def _valid(self, given: bytes | None) -> bool:
+        return given is not None and hmac.compare_digest(given, self._token)
+
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        given = None
+        given = cookie = None
         for key, value in scope.get("headers", ()):
             if key == b"authorization":
                 scheme, _, credentials = value.partition(b" ")
                 if scheme.lower() == b"bearer":
                     given = credentials.strip()
-                break
-        if given is not None and hmac.compare_digest(given, self._token):
+            elif key == b"cookie":
+                cookie = _cookie_value(value, COOKIE.encode()) or cookie
+        if self._valid(given) or (given is None and self._valid(cookie)):
             await self.app(scope, receive, send)
             return
+        if given is None and scope.get("path") == "/" and scope.get("method") == "GET":
+            from urllib.parse import parse_qs
+
+            offered = parse_qs(scope.get("query_string", b"").decode("latin-1")).get("token", [""])[0]
+            if self._valid(offered.encode()):
+                cookie_header = f"{COOKIE}={offered}; HttpOnly; SameSite=Strict; Path=/"
+                await send({"type": "http.response.start", "status": 303,
+                            "headers": [(b"location", b"/"), (b"set-cookie", cookie_header.encode()),
+                                        (b"cache-control", b"no-store"), (b"content-length", b"0")]})
+                await send({"type": "http.response.body", "body": b""})
+                return
         challenge = 'Bearer realm="agentic-mpc"' + ("" if given is None else ', error="invalid_token"')
         await _send_json(send, 401, {"error": "invalid_token" if given is not None else "unauthorized",
                                      "error_description": "a valid bearer token is required"},
@@ -227,23 +256,28 @@ def bind_socket(host: str, port: int) -> socket.socket:
 
 
 def build_app(mcp_server: Any, host: str, port: int, *, token: str | None = None, allow_hosts: Iterable[str] = (),
-              allow_origins: Iterable[str] = ()) -> ASGIApp:
-    """The MCP server's streamable HTTP app at ``/mcp``, with every check of the module docstring."""
+              allow_origins: Iterable[str] = (), extra_routes: Iterable[Any] = ()) -> ASGIApp:
+    """The MCP server's streamable HTTP app at ``/mcp``, with every check of the module docstring.
+    ``extra_routes`` (the live view's) are served by the same app behind the same token and shield; they
+    check Host and Origin themselves with :func:`security_settings` (as the SDK does for ``/mcp``)."""
     app = mcp_server.streamable_http_app(
         streamable_http_path="/mcp", max_request_body_size=MAX_BODY_BYTES, max_sessions=MAX_SESSIONS,
         transport_security=security_settings(host, port, allow_hosts, allow_origins), host=host,
     )
+    app.router.routes.extend(extra_routes)
     return protect(app, token)
 
 
 def serve_http(mcp_server: Any, sock: socket.socket, host: str, port: int, *, token: str | None = None,
-               allow_hosts: Iterable[str] = (), allow_origins: Iterable[str] = ()) -> None:
+               allow_hosts: Iterable[str] = (), allow_origins: Iterable[str] = (),
+               extra_routes: Iterable[Any] = ()) -> None:
     """Run the MCP server on the listening ``sock`` until SIGINT/SIGTERM (uvicorn, one event loop)."""
     import asyncio
 
     import uvicorn
 
-    app = build_app(mcp_server, host, port, token=token, allow_hosts=allow_hosts, allow_origins=allow_origins)
+    app = build_app(mcp_server, host, port, token=token, allow_hosts=allow_hosts, allow_origins=allow_origins,
+                    extra_routes=extra_routes)
     config = uvicorn.Config(app, log_level="warning", access_log=False, limit_concurrency=MAX_CONNECTIONS,
                             server_header=False, timeout_graceful_shutdown=3, lifespan="on")
     asyncio.run(uvicorn.Server(config).serve(sockets=[sock]))

@@ -64,7 +64,7 @@ def read_rows(path: Path, required: tuple[str, ...] = (), notes: list[str] | Non
     return rows
 
 
-def _num(text: str | None, default: float = math.nan) -> float:
+def _num(text: Any, default: float = math.nan) -> float:
     try:
         return float(text) if text not in (None, "") else default
     except ValueError:
@@ -151,7 +151,7 @@ def vehicle_sizes(scenario: dict[str, Any], notes: list[str]) -> dict[str, tuple
     return sizes
 
 
-def _size(sizes: dict[str, tuple[float, float]], vehicle_id: str, type_id: str, vclass: str) -> tuple[float, float]:
+def size_of(sizes: dict[str, tuple[float, float]], vehicle_id: str, type_id: str, vclass: str) -> tuple[float, float]:
     for key in ("@" + vehicle_id, type_id, type_id.split("@")[0]):
         if key in sizes:
             return sizes[key]
@@ -199,7 +199,7 @@ def _traffic(rows: list[dict[str, str]], sizes: dict[str, tuple[float, float]]) 
         vid = r.get("id", "")
         if vid not in index:
             emergency = r.get("emergency", "").lower() == "true" or r.get("vclass") == "emergency"
-            length, width = _size(sizes, vid, r.get("type_id", ""), r.get("vclass", ""))
+            length, width = size_of(sizes, vid, r.get("type_id", ""), r.get("vclass", ""))
             index[vid] = len(vehicles)
             vehicles[vid] = {"id": vid, "type": r.get("type_id", ""), "cls": r.get("vclass", ""),
                              "L": round(length, 2), "W": round(width, 2), "em": emergency}
@@ -208,7 +208,7 @@ def _traffic(rows: list[dict[str, str]], sizes: dict[str, tuple[float, float]]) 
     return {"vehicles": list(vehicles.values()), "frames": frames}
 
 
-def _obstacles(rows: list[dict[str, str]], sizes: dict[str, tuple[float, float]]) -> list[dict[str, Any]]:
+def obstacle_items(rows: list[dict[str, str]], sizes: dict[str, tuple[float, float]]) -> list[dict[str, Any]]:
     """J2's discs per obstacle, and a stopped car's footprint where its discs line up (SUMO obstacles)."""
     groups: dict[str, list[tuple[float, float, float]]] = {}
     for r in rows:
@@ -231,9 +231,12 @@ def _short(text: str) -> str:
     return text if len(text) <= CAPTION_CHARS else text[: CAPTION_CHARS - 1] + "…"
 
 
-def _captions(rows: list[dict[str, str]]) -> list[dict[str, Any]]:
-    """Passenger and observation messages, the agent's replies and its tool calls, at their sim times."""
-    own_calls = any(r.get("event") == "tool_call" for r in rows)
+def captions_of(rows: list[dict[str, Any]], own_calls: bool | None = None) -> list[dict[str, Any]]:
+    """Passenger and observation messages, the agent's replies and its tool calls, at their sim times.
+    ``own_calls``: whether an embedded agent made calls (then the MCP server's receipts of them are not shown
+    twice); None: decided from ``rows``."""
+    if own_calls is None:
+        own_calls = any(r.get("event") == "tool_call" for r in rows)
     captions = []
     for r in rows:
         t = _num(r.get("sim_time_s"))
@@ -324,8 +327,8 @@ def load_run(directory: Path) -> dict[str, Any]:
         "road": road,
         "ego": {**ego, "L": ego_size[0], "W": ego_size[1]},
         "traffic": _traffic(optional("traffic.csv", ("time_s", "id", "x_m", "y_m")), sizes),
-        "obstacles": _obstacles(optional("obstacles.csv", ("id", "x_m", "y_m", "radius_m")), sizes),
-        "captions": _captions(optional("events.csv", ("event", "sim_time_s"))),
+        "obstacles": obstacle_items(optional("obstacles.csv", ("id", "x_m", "y_m", "radius_m")), sizes),
+        "captions": captions_of(optional("events.csv", ("event", "sim_time_s"))),
         "plan": _plan(optional("plan.csv", ("time_s", "k", "x_m", "y_m"))),
         "notes": notes,
     }

@@ -49,6 +49,7 @@ PAGE = """<!DOCTYPE html>
     </div>
   </section>
   <aside>
+{live_panel}
     <h2>Ego</h2>
     <div id="readout"></div>
     <canvas id="vplot" width="340" height="100"></canvas>
@@ -74,9 +75,21 @@ PAGE = """<!DOCTYPE html>
 <script>
 {js}
 </script>
+{live_js}
 </body>
 </html>
 """
+
+
+LIVE_PANEL = """    <h2>Talk to the agent</h2>
+    <form id="chat">
+      <input id="chat-text" name="text" autocomplete="off" maxlength="2000"
+             placeholder="e.g. an ambulance is coming, make way" aria-label="message to the agent">
+      <button type="submit">Send</button>
+    </form>
+    <div id="chat-status" aria-live="polite"></div>
+    <div id="connection"></div>"""
+"""The live page's chat box (its messages go to the run's agent as the passenger's)."""
 
 
 def _asset(name: str) -> str:
@@ -88,8 +101,11 @@ def render_page(scene: dict[str, Any]) -> str:
     data = json.dumps(scene, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
     # Inside <script>, only "</" can end the element early; "<!--" could start an HTML comment state.
     data = data.replace("</", "<\\/").replace("<!--", "<\\!--")
+    live_panel = live_js = ""
+    if scene.get("live"):  # agentic-mpc serve --view: the chat box and the script that appends what is new
+        live_panel, live_js = LIVE_PANEL, f"<script>\n{_asset('live.js')}\n</script>"
     return PAGE.format(title=html.escape(scene.get("title", "run")), css=_asset("replay.css"), js=_asset("replay.js"),
-                       data=data)
+                       data=data, live_panel=live_panel, live_js=live_js)
 
 
 def write_replay(run_dir: Path, out: Path | None = None) -> Path:

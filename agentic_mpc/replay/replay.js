@@ -3,7 +3,9 @@
   "use strict";
   const D = JSON.parse(document.getElementById("replay-data").textContent);
   const track = D.ego.track, frames = D.traffic.frames, vehicles = D.traffic.vehicles;
-  const T0 = track[0][0], T1 = track[track.length - 1][0];
+  const T0 = track.length ? track[0][0] : 0;
+  let T1 = track.length ? track[track.length - 1][0] : 0;
+  let following = Boolean(D.live);  // a live page shows the newest time until the slider is moved back
   const HOLD_S = 6, MAX_CAPTIONS = 4;
   const COLOURS = {passenger: "#3b82f6", private: "#3b82f6", taxi: "#facc15", truck: "#b45309", trailer: "#92400e",
     bus: "#ca8a04", coach: "#ca8a04", delivery: "#0891b2", motorcycle: "#7c3aed", moped: "#7c3aed",
@@ -174,9 +176,10 @@
     c.strokeStyle = "#dc2626"; c.lineWidth = 1; c.beginPath(); c.moveTo(tx(t), 14); c.lineTo(tx(t), h - 12); c.stroke();
     canvas.onclick = (e) => { const r = canvas.getBoundingClientRect(); seek(T0 + (e.clientX - r.left - pad) / (r.width - pad - 6) * (T1 - T0)); };
   }
-  function buildLog() {
+  function buildLog(from = 0) {
     const log = $("log");
-    D.captions.forEach((c, k) => {
+    D.captions.slice(from).forEach((c, j) => {
+      const k = from + j;
       const item = document.createElement("li");
       item.className = "cap-" + c.kind;
       item.dataset.k = k;
@@ -195,6 +198,10 @@
     document.querySelectorAll("#log li").forEach((li) => li.classList.toggle("past", D.captions[li.dataset.k].t <= t));
   }
   function render() {
+    if (!track.length) {  // a live page opened before the first control step: nothing to draw yet
+      window.replayState = {t, t0: T0, t1: T1, playing, live: Boolean(D.live), following, drawn: [], captions: [], spec: ""};
+      return;
+    }
     const {ego, drawn} = draw();
     const shown = captionsAt(t);
     const box = $("captions");
@@ -205,9 +212,9 @@
       return div;
     }));
     slider.value = t;
-    $("time").textContent = `${t.toFixed(2)} / ${T1.toFixed(2)} s`;
+    $("time").textContent = D.live && following ? `${t.toFixed(2)} s (live)` : `${t.toFixed(2)} / ${T1.toFixed(2)} s`;
     updatePanel(ego);
-    window.replayState = {t, t0: T0, t1: T1, playing, speed: Number(speedSelect.value), scale,
+    window.replayState = {t, t0: T0, t1: T1, playing, live: Boolean(D.live), following, speed: Number(speedSelect.value), scale,
       ego: {x: ego.x, y: ego.y, heading: ego.heading, v: ego.v, a: ego.a}, drawn,
       captions: shown.map((c) => c.text), spec: specAt(t) ? specAt(t)[2] : ""};
   }
@@ -238,7 +245,25 @@
     .filter((k) => k in s && s[k] !== "").map((k) => `${k} ${s[k]}`).join(" · ") : "";
   $("notes").textContent = D.notes.join("; ");
   slider.min = T0; slider.max = T1; slider.step = 0.01;
-  slider.oninput = () => { const value = slider.value; playing = false; playButton.textContent = "▶ Play"; seek(value); };
+  slider.oninput = () => {
+    const value = Number(slider.value);
+    playing = false; playButton.textContent = "▶ Play";
+    following = Boolean(D.live) && value >= T1 - 0.05;
+    seek(value);
+  };
+  function append(chunk) {  // a live page: what the run recorded since the last chunk (agentic_mpc/replay/live.py)
+    track.push(...chunk.track); frames.push(...chunk.frames); vehicles.push(...chunk.vehicles);
+    D.ego.specs.push(...chunk.specs);
+    const before = D.captions.length;
+    D.captions.push(...chunk.captions);
+    buildLog(before);
+    if (track.length) T1 = track[track.length - 1][0];
+    slider.max = T1;
+    if (following) t = T1;
+    if (!playing) render();
+    return window.replayState;
+  }
+  window.replayAppend = append;
   playButton.onclick = () => { if (t >= T1) t = T0; setPlaying(!playing); };
   $("zoom-in").onclick = () => { scale = Math.min(40, scale * 1.25); render(); };
   $("zoom-out").onclick = () => { scale = Math.max(0.5, scale / 1.25); render(); };
@@ -255,5 +280,5 @@
   window.replayPlay = setPlaying;
   buildLog();
   resize();
-  seek(T0);
+  seek(D.live ? T1 : T0);
 })();

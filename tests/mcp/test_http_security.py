@@ -290,10 +290,10 @@ LOAD_S = 10.0
 FUZZ_REQUESTS = 2000
 
 
-def _median_step_ms(trajectory: pd.DataFrame, start_s: float, end_s: float) -> float:
+def _median_step_ms(trajectory: pd.DataFrame, start_s: float, end_s: float, column: str = "step_ms") -> float:
     window = trajectory[(trajectory["time_s"] >= start_s) & (trajectory["time_s"] < end_s)]
     assert len(window) > 50, (start_s, end_s, len(window))
-    return float(window["step_ms"].median())
+    return float(window[column].median())
 
 
 @pytest.mark.slow
@@ -380,6 +380,9 @@ def test_soak_fuzz_and_fifty_clients(tmp_path):
     loaded_p95 = trajectory[(trajectory.time_s >= t2) & (trajectory.time_s < t3)]["step_ms"].quantile(0.95)
     print(f"soak: control step median unloaded {unloaded:.3f} ms, during the fuzz {fuzzed:.3f} ms, with 50 "
           f"clients {loaded:.3f} ms (x{loaded / unloaded:.2f}; p95 {loaded_p95:.3f} ms)")
+    solve = {name: _median_step_ms(trajectory, *window, column="solve_ms")
+             for name, window in (("unloaded", (t0, t1)), ("fuzz", extra["fuzz_window"]), ("loaded", (t2, t3)))}
+    print(f"soak: controller solve median {solve}")
     assert code == 0
     assert not failures, failures[:10]
     assert "Traceback" not in stderr and "ERROR" not in stderr, stderr[-3000:]
