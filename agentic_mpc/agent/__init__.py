@@ -8,8 +8,8 @@ from typing import Any
 
 _EXPORTS = {
     "Agent": "agentic_mpc.agent.agent",
-    "AgentConfig": "agentic_mpc.agent.agent",
-    "AgentError": "agentic_mpc.agent.agent",
+    "AgentConfig": "agentic_mpc.agent.config",
+    "AgentError": "agentic_mpc.agent.config",
     "StepReport": "agentic_mpc.agent.report",
     "system_prompt": "agentic_mpc.agent.prompt",
     "Message": "agentic_mpc.agent.messages",

@@ -46,69 +46,28 @@ import math
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future
-from pathlib import Path
-from typing import Any, Literal
+from dataclasses import replace
+from typing import Any
 
 from mcp import Client
-from pydantic import BaseModel, ConfigDict, Field
 
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
+from agentic_mpc.agent.config import AgentConfig, AgentError, WatchRequest, check_message, root_cause
 from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resource
 from agentic_mpc.agent.messages import Message, MessageHistory, Source, ToolCall
 from agentic_mpc.agent.prompt import system_prompt
 from agentic_mpc.agent.report import StepReport
+from agentic_mpc.agent.situation import EmergencyWatch, read_situation
 from agentic_mpc.agent.transcript import Transcript
-from agentic_mpc.mcp.protocol import APPLY_AT_META_KEY, INITIAL_SPECIFICATION_URI, ROAD_URI, validate_arguments
+from agentic_mpc.mcp.protocol import (
+    APPLY_AT_META_KEY,
+    EMERGENCY_VEHICLES_URI,
+    INITIAL_SPECIFICATION_URI,
+    ROAD_URI,
+    validate_arguments,
+)
 
 logger = logging.getLogger(__name__)
-
-
-class AgentConfig(BaseModel):
-    """How the agent runs."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-    timing: Literal["realtime", "lockstep"] = "realtime"
-    latency_s: float = Field(1.0, ge=0, description="lockstep: the thinking time charged to every agent step")
-    max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step")
-    max_tool_calls_per_round: int = Field(8, ge=1, le=100)
-    max_consecutive_errors: int = Field(3, ge=1, description="rounds in a row whose every tool call failed")
-    backend_attempts: int = Field(3, ge=1, le=20, description="tries per backend answer before the step ends")
-    backend_timeout_s: float = Field(120.0, gt=0)
-    retry_backoff_s: float = Field(0.5, ge=0)
-    tool_timeout_s: float = Field(10.0, gt=0)
-    max_message_chars: int = Field(4000, ge=1)
-    startup_timeout_s: float = Field(60.0, gt=0)
-    lockstep_timeout_s: float = Field(600.0, gt=0)
-    transcript_path: Path | None = None
-    system_prompt_extra: str = ""
-    headers: dict[str, str] = Field(default_factory=dict, repr=False,
-                                    description="HTTP (a URL server): extra request headers, e.g. Authorization")
-    bearer_token_env: str | None = Field(
-        None, description="HTTP: the environment variable holding the server's bearer token (sent as "
-                          "'Authorization: Bearer ...'; read when the agent connects, never stored)")
-
-
-class AgentError(RuntimeError):
-    """The agent could not start (no MCP server, no tools)."""
-
-
-def _root_cause(error: BaseException) -> BaseException:
-    """The first leaf of nested exception groups (task groups wrap the interesting error)."""
-    while isinstance(error, BaseExceptionGroup) and error.exceptions:
-        error = error.exceptions[0]
-    return error
-
-
-def _check_message(text: Any, limit: int) -> str | None:
-    """Why ``text`` cannot become a user message, or None."""
-    if not isinstance(text, str):
-        return f"a message must be text, got {type(text).__name__}"
-    if not text.strip():
-        return "empty message"
-    if len(text) > limit:
-        return f"message of {len(text)} characters exceeds the limit of {limit}"
-    return None
 
 
 class Agent:
@@ -136,7 +95,9 @@ class Agent:
         self.tools: tuple[ToolSpec, ...] = ()
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._queue: asyncio.Queue[tuple[Message, Future[StepReport]] | None] | None = None
+        self._queue: asyncio.Queue[tuple[Message | WatchRequest, Future[Any]] | None] | None = None
+        self._watch = EmergencyWatch(self.config.alert_distance_m)
+        self._watch_queued = False  # realtime: one pending check is enough, however many updates arrived
         self._ready = threading.Event()
         self._startup_error: BaseException | None = None
         self._client: Client | None = None
@@ -151,7 +112,7 @@ class Agent:
         if not self._ready.wait(self.config.startup_timeout_s):
             raise AgentError(f"the agent did not connect to the MCP server within {self.config.startup_timeout_s} s")
         if self._startup_error is not None:
-            cause = _root_cause(self._startup_error)
+            cause = root_cause(self._startup_error)
             raise AgentError(f"the agent could not start: {cause!r}") from cause
         return self
 
@@ -193,11 +154,16 @@ class Agent:
                 self._client = client
                 await self._introduce(client)
                 self._ready.set()
+                listening = (asyncio.create_task(self._listen(client)) if self.config.watch_emergency_vehicles
+                             and self.config.timing == "realtime" else None)
                 while True:
                     item = await self._queue.get()
                     if item is None:
                         break
                     message, future = item
+                    if isinstance(message, WatchRequest):
+                        future.set_result(await self._watch_step(client, message.sim_time_s))
+                        continue
                     try:
                         report = await self._run_step(message)
                     except Exception as error:  # never leave a caller waiting on a crashed step
@@ -206,6 +172,8 @@ class Agent:
                         report.errors.append(f"internal error: {error!r}")
                         report.ended = "gave_up"
                     future.set_result(report)
+                if listening is not None:
+                    listening.cancel()
         finally:
             await self._drain_closed()
             try:
@@ -220,6 +188,9 @@ class Agent:
             item = self._queue.get_nowait()
             if item is not None:
                 message, future = item
+                if isinstance(message, WatchRequest):
+                    future.set_result([])
+                    continue
                 report = StepReport(message.content, message.source or "user", message.sim_time_s, ended="closed")
                 future.set_result(report)
 
@@ -257,7 +228,7 @@ class Agent:
         t = sim_time_s if sim_time_s is not None else self._now(None)
         if self.config.timing == "lockstep" and (t is None or not math.isfinite(t)):
             raise ValueError("lockstep mode needs the sim time of every message (sim_time_s or sim_clock)")
-        problem = _check_message(text, self.config.max_message_chars)
+        problem = check_message(text, self.config.max_message_chars)
         if problem is None and (self._closed or self._loop is None or self._queue is None):
             problem = "the agent is not running"
         if problem is not None:
@@ -277,6 +248,43 @@ class Agent:
             future.result(timeout=self.config.lockstep_timeout_s)
         return future
 
+    def watch(self, sim_time_s: float) -> Future[list[StepReport]]:
+        """Lockstep: check ``sumo://emergency-vehicles`` now (the simulation waits) and run a step for each
+        event it brings, stamped ``sim_time_s``. (Realtime agents watch by themselves: subscribed.)"""
+        future: Future[list[StepReport]] = Future()
+        if self._closed or self._loop is None or self._queue is None:
+            future.set_result([])
+            return future
+        self._loop.call_soon_threadsafe(self._queue.put_nowait, (WatchRequest(sim_time_s), future))
+        if self.config.timing == "lockstep":
+            future.result(timeout=self.config.lockstep_timeout_s)
+        return future
+
+    async def _listen(self, client: Client) -> None:
+        """Realtime: wake on every update of ``sumo://emergency-vehicles`` the server announces."""
+        try:
+            async with client.listen(resource_subscriptions=[EMERGENCY_VEHICLES_URI]) as updates:
+                async for _ in updates:
+                    if not self._watch_queued and self._queue is not None:
+                        self._watch_queued = True
+                        self._queue.put_nowait((WatchRequest(None), Future()))
+        except asyncio.CancelledError:
+            raise
+        except Exception as error:  # the server cannot notify: say so once; messages still reach the agent
+            logger.warning("no updates of %s: %s; the agent will not wake on emergency vehicles", EMERGENCY_VEHICLES_URI,
+                           error)
+            self.transcript.record("watch_error", tau=self.history.tau, sim_time_s=self._now(None), error=str(error))
+
+    async def _watch_step(self, client: Client, sim_time_s: float | None) -> list[StepReport]:
+        self._watch_queued = False
+        reports = []
+        for event in await self._watch.check(client):
+            stamp = sim_time_s if sim_time_s is not None else event.time_s
+            logger.info("the watch saw %s at t=%.2f s", event.kind, event.time_s)
+            reports.append(await self._run_step(
+                Message("user", event.message(), source="observation", sim_time_s=round(stamp, 3))))
+        return reports
+
     # ------------------------------------------------------------------ one agent step
     def _append(self, message: Message) -> Message:
         stamped = self.history.append(message)
@@ -286,6 +294,8 @@ class Agent:
     async def _run_step(self, incoming: Message) -> StepReport:
         frozen = incoming.sim_time_s if self.config.timing == "lockstep" else None
         apply_at = None if frozen is None else frozen + self.config.latency_s
+        if self.config.situation and getattr(self.backend, "reads_situation", True) and self._client is not None:
+            incoming = replace(incoming, context=await read_situation(self._client))
         user = self._append(incoming)
         report = StepReport(user.content, user.source or "user", user.sim_time_s, first_tau=user.tau)
         consecutive_errors = 0

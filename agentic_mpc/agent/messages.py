@@ -64,6 +64,9 @@ class Message:
     result's structured content. Backends that are not language models (the rule-based one) read it."""
     tau: int = -1
     sim_time_s: float | None = None
+    context: str | None = None
+    """User messages: the situation when the step began, as the agent read it from MCP resources
+    (:mod:`agentic_mpc.agent.situation`); a language model sees it before the message itself."""
 
     def to_openai(self) -> dict[str, Any]:
         """The chat-completions form of this message."""
@@ -87,6 +90,9 @@ class Message:
             return out
         if self.role == "tool":
             return {"role": "tool", "tool_call_id": self.tool_call_id or "", "content": self.content}
+        if self.role == "user" and self.context:
+            said = self.content if self.source == "observation" else f"Passenger: {self.content}"
+            return {"role": "user", "content": f"{self.context}\n\n{said}"}
         return {"role": self.role, "content": self.content}
 
     def describe(self) -> dict[str, Any]:
@@ -94,6 +100,8 @@ class Message:
         described: dict[str, Any] = {"tau": self.tau, "role": self.role, "content": self.content}
         if self.source is not None:
             described["source"] = self.source
+        if self.context:
+            described["context"] = self.context
         if self.tool_calls:
             described["tool_calls"] = [call.describe() for call in self.tool_calls]
         if self.role == "tool":

@@ -52,6 +52,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "tools (default: native for openai, json_schema for llamacpp)")
     parser.add_argument("--temperature", type=float, default=None, help="openai, llamacpp: sampling temperature (0)")
     parser.add_argument("--max-tokens", type=int, default=None, help="openai, llamacpp: tokens per answer (512)")
+    parser.add_argument("--extra-prompt", default="", help="appended to the agent's system prompt")
+    parser.add_argument("--extra-body", default=None, metavar="JSON",
+                        help='openai: merged into every request body, e.g. \'{"top_p": 0.9}\'')
     parser.add_argument("--yield-lane", choices=("left", "right"), default=None,
                         help="rules: where to pull over for emergency vehicles (default: the road edge side; "
                              "left in the paper's left-hand traffic)")
@@ -70,6 +73,11 @@ def _backend(args: argparse.Namespace):  # -> Backend
         return make_backend("rules", yield_lane=args.yield_lane or "left")
     options = {key: value for key, value in (("tool_mode", args.tool_mode), ("temperature", args.temperature),
                                              ("max_tokens", args.max_tokens)) if value is not None}
+    if args.extra_body:
+        try:
+            options["extra_body"] = json.loads(args.extra_body)
+        except json.JSONDecodeError as error:
+            raise ValueError(f"--extra-body is not JSON: {error}") from None
     if args.backend == "llamacpp":
         if args.model_path is None:
             raise ValueError("--backend llamacpp needs --model-path (a GGUF model file)")
@@ -121,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     if args.yield_lane is None:
         args.yield_lane = "left" if world.lanes().lefthand else "right"
     config = AgentConfig(transcript_path=args.transcript, backend_attempts=2, retry_backoff_s=0.2,
-                         backend_timeout_s=args.timeout_s + 5.0)
+                         backend_timeout_s=args.timeout_s + 5.0, system_prompt_extra=args.extra_prompt)
     with build_loop(scenario, world, agent=AgentSetup(backend or _backend(args), config)) as loop:
         report = loop.agent.deliver(args.message).result()
     calls = report.applied_calls

@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import non_negative_int
+from agentic_mpc.commands import agent_setting, non_negative_int, with_agent_settings
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -19,6 +19,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--variant", default=None, help="variant name (default: the base scenario)")
     parser.add_argument("--seed", type=non_negative_int, default=None, help="seed (default: the scenario's)")
     parser.add_argument("--out", type=Path, default=None, help="output directory (default: out/<scenario>/<variant>/seed-<N>)")
+    parser.add_argument("--agent", type=agent_setting, action="append", default=[], metavar="KEY=VALUE",
+                        help="override a setting of the scenario's agent (repeatable), e.g. --agent backend=llamacpp "
+                             "--agent model=PATH.gguf --agent temperature=0.2 (see docs/llm-backends.md)")
     parser.set_defaults(handler=run)
 
 
@@ -34,6 +37,11 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
+    try:
+        scenario = with_agent_settings(scenario, args.agent)
+    except ValueError as error:
+        print(f"agentic-mpc run: {error}", file=sys.stderr)
+        return 2
     out = args.out or Path("out") / scenario.name / scenario.variant / f"seed-{scenario.seed}"
     try:
         summary = run_scenario(scenario, out)

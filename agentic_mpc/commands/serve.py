@@ -42,6 +42,8 @@ import sys
 import threading
 from pathlib import Path
 
+from agentic_mpc.commands import agent_setting, with_agent_settings
+
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "plain_world_traffic.yaml"
 
 
@@ -59,6 +61,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="scenario YAML to run (default: scenarios/plain_world_traffic.yaml, no SUMO)")
     parser.add_argument("--variant", default=None, help="with SCENARIO: the variant (default: the base scenario)")
     parser.add_argument("--out", type=Path, default=None, help="with SCENARIO: where the run's files go")
+    parser.add_argument("--agent", type=agent_setting, action="append", default=[], metavar="KEY=VALUE",
+                        help="override a setting of the scenario's agent (repeatable), e.g. --agent backend=llamacpp "
+                             "--agent model=PATH.gguf --agent temperature=0.2 (see docs/llm-backends.md)")
     parser.add_argument("--transport", choices=("stdio", "http"), default=None,
                         help="stdio (default) or http (the default with --view)")
     parser.add_argument("--view", action="store_true",
@@ -188,6 +193,11 @@ def serve_scenario(args: argparse.Namespace, listening: object = None) -> int:
         scenario = _with_ambulance_at(scenario, args.ambulance_at_s)
     if args.seed:
         scenario = scenario.with_seed(args.seed)
+    try:
+        scenario = with_agent_settings(scenario, args.agent)
+    except ValueError as error:
+        print(f"agentic-mpc serve: {error}", file=sys.stderr)
+        return 2
     if args.duration_s is not None:
         scenario = scenario.model_copy(update={"duration_s": args.duration_s})
     if args.view:  # the page's chat reaches the run's own agent, which must never hold up the car

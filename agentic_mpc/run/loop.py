@@ -9,8 +9,9 @@ One control step at simulation time t (:meth:`RunLoop.step`):
    in realtime mode it does not;
 3. one snapshot of the specification; the world's surroundings; the controller's inputs;
 4. the world advances one step with those inputs (the plant moves, the traffic reacts);
-5. the MCP server announces the new observation; emergency-vehicle events may wake the agent
-   (observation messages); the step is recorded.
+5. the MCP server announces the new observation; an agent with observation messages watches the resource
+   ``sumo://emergency-vehicles`` for an emergency vehicle approaching or passed and wakes itself (lockstep:
+   it checks here and the loop waits; realtime: subscribed to the resource's updates); the step is recorded.
 
 Every tool call the MCP server receives (from the embedded agent or an outside host) is recorded as it
 arrives, with its client and the sim time (``tool_call_received`` in ``events.csv``).
@@ -41,6 +42,9 @@ from agentic_mpc.world.base import World
 from agentic_mpc.world.emergency import EmergencyDetector
 
 logger = logging.getLogger(__name__)
+
+LAG_WARNING_S = 0.5
+"""A paced run more than this far behind the wall clock says once that it cannot keep real time."""
 
 
 @dataclass(frozen=True)
@@ -106,12 +110,18 @@ class RunLoop:
         self.schedule = MessageSchedule(tuple(messages), self.detector)
         self.stop = threading.Event()
         """Set it (from any thread) to end :meth:`run` after the current step."""
+        self.realtime_lag_s = 0.0
+        """A paced run: the most the simulation fell behind the wall clock (0 when unpaced or on time)."""
         self.agent: Any = None
         self._observation_messages = False
         if agent is not None:
             from agentic_mpc.agent.agent import Agent
 
-            self.agent = Agent(agent.backend, self.server, agent.config, sim_clock=lambda: world.time_s).start()
+            config = agent.config
+            if agent.observation_messages:  # the agent watches sumo://emergency-vehicles over MCP itself
+                config = config.model_copy(update={"watch_emergency_vehicles": True,
+                                                   "alert_distance_m": settings.alert_distance_m})
+            self.agent = Agent(agent.backend, self.server, config, sim_clock=lambda: world.time_s).start()
             self._observation_messages = agent.observation_messages
         self._lockstep = self.agent is not None and self.agent.config.timing == "lockstep"
 
@@ -139,24 +149,38 @@ class RunLoop:
         after = world.advance(output.delta, output.throttle, output.brake)
         outcome = StepOutcome(before, state, output, specification, version, len(surroundings.moving_discs),
                               (time.perf_counter() - started) * 1e3)
-        self.server.publish_observation(after.to_json())
-        for event in self.detector.update(after):
-            if self._observation_messages:
-                self.agent.deliver(event.message(), sim_time_s=round(after.time_s, 3), source="observation")
+        self.server.publish_observation()  # the JSON is built only if somebody listens
+        self.detector.update(after)  # the timeline's events (messages due a delay after one)
+        if self._observation_messages and self._lockstep:  # the agent checks what it reads; the car waits
+            self.agent.watch(round(after.time_s, 3))
         self.recorder.step(outcome, after)
         stride = self.settings.plan_stride
         if stride and (len(self.recorder.trajectory_rows) - 1) % stride == 0:
             self.recorder.plan(before.time_s, self.controller.planned_states(state))
         return outcome
 
+    def warm_up(self) -> None:
+        """Load the controller's compiled kernels with a throwaway controller (same settings, its own random
+        stream: the run's is untouched), so that a paced run does not start a second behind the wall clock."""
+        spare = FourierMPPI(self.controller.config, seed=0)
+        spare.reset(self.controller.mean)
+        spare.step(self.world.ego_state, self.slot.current, self.world.surroundings(spare.config.horizon, None))
+
     def run(self) -> None:
         """Step until the end of the run, the goal (if it stops there) or :attr:`stop`."""
         pace = self.settings.pace
         wall_start, sim_start = time.perf_counter(), self.world.time_s
+        warned = False
         while not self.finished:
-            if pace:  # the simulation waits for the wall clock (an outside MCP host drives in real time)
+            if pace:  # the simulation waits for the wall clock (a realtime agent or an outside MCP host)
                 due = wall_start + (self.world.time_s - sim_start) * pace
-                if self.stop.wait(max(0.0, due - time.perf_counter())):
+                behind_s = time.perf_counter() - due
+                self.realtime_lag_s = max(self.realtime_lag_s, behind_s)
+                if behind_s > LAG_WARNING_S and not warned:
+                    warned = True
+                    logger.warning("the simulation cannot keep real time: %.2f s behind the wall clock at t = %.2f s",
+                                   behind_s, self.world.time_s)
+                if self.stop.wait(max(0.0, -behind_s)):
                     break
             self.step()
 

@@ -1,7 +1,8 @@
 """The one emergency-vehicle event detector: an emergency vehicle approaching from behind, and its passing.
 
-Read by the scenario's message timeline (messages due "a delay after an event") and by the agent's
-observation messages (the world wakes the agent). Both see the same events at the same step.
+Read by the scenario's message timeline (messages due "a delay after an event", on the world's
+:class:`Observation`) and by the agent's emergency watch (on what it read from the MCP resource
+``sumo://emergency-vehicles``, :meth:`EmergencyDetector.update_json`). Both see the same events at the same step.
 
 - approaching: an emergency vehicle on the ego's road is behind the ego within ``alert_distance_m``
   (bumper to bumper);
@@ -11,8 +12,9 @@ observation messages (the world wakes the agent). Both see the same events at th
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from agentic_mpc.world.observation import EmergencyVehicleObservation, Observation
 
@@ -42,10 +44,34 @@ class EmergencyEvent:
         return f"{stamp}The emergency vehicle ({names}) has passed us{where}."
 
 
-def _label(emergency: EmergencyVehicleObservation) -> str:
-    vehicle = emergency.vehicle
-    kind = vehicle.type_id or vehicle.vclass
-    return f"{kind} '{vehicle.id}'" if kind else f"'{vehicle.id}'"
+@dataclass(frozen=True, slots=True)
+class Sighting:
+    """What the detector needs of one emergency vehicle, from an observation or its JSON."""
+
+    id: str
+    label: str
+    relation: str
+    on_road: bool
+    """On a lane of the ego's road (its ``relative_lane`` is known)."""
+    distance_m: float
+
+    @classmethod
+    def of(cls, emergency: EmergencyVehicleObservation) -> Sighting:
+        vehicle = emergency.vehicle
+        return cls(vehicle.id, _label(vehicle.id, vehicle.type_id or vehicle.vclass), emergency.relation,
+                   vehicle.relative_lane is not None, emergency.distance_m)
+
+    @classmethod
+    def of_json(cls, item: dict[str, Any]) -> Sighting:
+        """From one entry of the resource's ``emergency_vehicles`` (``EmergencyVehicleObservation.to_json``)."""
+        distance = item.get("distance_m")
+        return cls(str(item["id"]), _label(str(item["id"]), item.get("type_id") or item.get("vclass") or ""),
+                   str(item.get("relation", "")), item.get("relative_lane") is not None,
+                   float(distance) if isinstance(distance, int | float) else math.inf)
+
+
+def _label(vehicle_id: str, kind: str) -> str:
+    return f"{kind} '{vehicle_id}'" if kind else f"'{vehicle_id}'"
 
 
 @dataclass
@@ -59,17 +85,26 @@ class EmergencyDetector:
     _announced: dict[str, str] = field(default_factory=dict)
 
     def update(self, observation: Observation) -> list[EmergencyEvent]:
-        t = observation.time_s
-        present = {e.vehicle.id: e for e in observation.emergency_vehicles}
+        return self.update_sightings(observation.time_s, [Sighting.of(e) for e in observation.emergency_vehicles])
+
+    def update_json(self, resource: dict[str, Any]) -> list[EmergencyEvent]:
+        """The same on the JSON of the MCP resource ``sumo://emergency-vehicles`` (``time_s``,
+        ``emergency_vehicles``); raises ``ValueError`` for a resource without them."""
+        t, items = resource.get("time_s"), resource.get("emergency_vehicles")
+        if not isinstance(t, int | float) or not isinstance(items, list):
+            raise ValueError("not an emergency-vehicles resource: time_s or emergency_vehicles missing")
+        return self.update_sightings(float(t), [Sighting.of_json(item) for item in items if isinstance(item, dict)])
+
+    def update_sightings(self, t: float, sightings: list[Sighting]) -> list[EmergencyEvent]:
+        present = {e.id: e for e in sightings}
         events = []
         new = [
-            e for e in observation.emergency_vehicles
-            if e.vehicle.id not in self._announced and e.relation == "behind" and e.vehicle.relative_lane is not None
-            and e.distance_m <= self.alert_distance_m
+            e for e in sightings
+            if e.id not in self._announced and e.relation == "behind" and e.on_road and e.distance_m <= self.alert_distance_m
         ]
         for emergency in new:
-            self._announced[emergency.vehicle.id] = _label(emergency)
-            events.append(EmergencyEvent("emergency_vehicle_approaching", t, (_label(emergency),), emergency.distance_m))
+            self._announced[emergency.id] = emergency.label
+            events.append(EmergencyEvent("emergency_vehicle_approaching", t, (emergency.label,), emergency.distance_m))
         if self._announced and not new:
             waiting = [
                 vehicle_id for vehicle_id in self._announced

@@ -50,6 +50,9 @@ class BackendError(RuntimeError):
 
 class Backend(Protocol):
     name: str
+    reads_situation: bool
+    """Whether its answers use ``Message.context`` (a language model does; the rule-based one reads only the
+    message): the agent reads the situation over MCP only for backends that use it."""
 
     async def complete(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> BackendReply:
         """The next agent message for ``history`` (which ends with a user message or tool results)."""

@@ -42,6 +42,7 @@ class ChatBackend:
     """Chat completions with tools (see the module docstring); subclasses implement :meth:`send`."""
 
     name = "chat"
+    reads_situation = True
     config: ChatOptions
 
     def __init__(self) -> None:

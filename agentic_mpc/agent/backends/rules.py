@@ -97,6 +97,7 @@ class RulesBackend:
     for emergency vehicles: "left" as in the paper (left-hand traffic); use "right" for right-hand traffic."""
 
     name = "rules"
+    reads_situation = False  # it reads the message alone
 
     def __init__(self, yield_lane: Side = "left") -> None:
         self.yield_lane = yield_lane

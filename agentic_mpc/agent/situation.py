@@ -1,0 +1,84 @@
+"""What the agent knows of the moment, read through MCP resources as any MCP host would.
+
+- :func:`read_situation` reads ``sumo://ego``, ``sumo://emergency-vehicles`` and ``mpc://specification`` at the
+  start of an agent step; :func:`describe_situation` turns them into a few lines that go with the user message
+  (``Message.context``) to a language model. The rule-based backend reads only the message itself.
+- :class:`EmergencyWatch` runs the emergency-vehicle detector (:mod:`agentic_mpc.world.emergency`) on what the
+  agent read from ``sumo://emergency-vehicles``: the agent wakes itself on an ambulance coming up behind and
+  on its passing, in-process or across a process boundary alike.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from agentic_mpc.agent.connect import read_json_resource
+from agentic_mpc.mcp.protocol import EGO_URI, EMERGENCY_VEHICLES_URI, SPECIFICATION_URI
+from agentic_mpc.world.emergency import EmergencyDetector, EmergencyEvent
+
+MAX_EMERGENCY_LISTED = 3
+
+
+async def read_situation(client: Any) -> str | None:
+    """The current situation as a few lines, or None if the server has none of the resources."""
+    ego = await read_json_resource(client, EGO_URI, missing=logging.INFO)
+    emergency = await read_json_resource(client, EMERGENCY_VEHICLES_URI, missing=logging.INFO)
+    specification = await read_json_resource(client, SPECIFICATION_URI, missing=logging.INFO)
+    return describe_situation(ego, emergency, specification)
+
+
+def _number(value: Any) -> float | None:
+    return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+
+
+def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | None,
+                       specification: dict[str, Any] | None) -> str | None:
+    """``Current situation (t = 12.3 s): ...`` from the three resources' JSON (any of them may be None)."""
+    lines: list[str] = []
+    t = _number((ego or {}).get("time_s"))
+    car = (ego or {}).get("ego") or {}
+    speed = _number(car.get("speed_mps"))
+    if speed is not None:
+        lane = car.get("lane_role") or "no"
+        offset = _number(car.get("lateral_offset_m"))
+        where = f" {abs(offset):.1f} m {'left' if offset > 0 else 'right'} of its centre" if offset and abs(offset) >= 0.3 else ""
+        lines.append(f"- we drive at {speed:.1f} m/s ({speed * 3.6:.0f} km/h) in the {lane} lane{where}")
+    if emergency is not None:
+        vehicles = [v for v in emergency.get("emergency_vehicles") or [] if isinstance(v, dict)]
+        if not vehicles:
+            lines.append("- no emergency vehicle around")
+        for vehicle in vehicles[:MAX_EMERGENCY_LISTED]:
+            distance = _number(vehicle.get("distance_m"))
+            kind = vehicle.get("type_id") or vehicle.get("vclass") or "emergency vehicle"
+            lane = vehicle.get("lane_role") or "another"
+            gap = f"{distance:.0f} m " if distance is not None else ""
+            lines.append(f"- emergency vehicle {kind!s} '{vehicle.get('id')}' {gap}{vehicle.get('relation', 'near')} "
+                         f"us, in the {lane} lane")
+    if specification is not None and specification.get("summary"):
+        lines.append(f"- attached: {specification['summary']}")
+    if not lines:
+        return None
+    stamp = f" (t = {t:.1f} s)" if t is not None else ""
+    return f"Current situation{stamp}:\n" + "\n".join(lines)
+
+
+class EmergencyWatch:
+    """The emergency-vehicle detector on the resource ``sumo://emergency-vehicles`` as the agent reads it."""
+
+    def __init__(self, alert_distance_m: float) -> None:
+        self.detector = EmergencyDetector(alert_distance_m)
+        self.last_read_s: float | None = None
+
+    async def check(self, client: Any) -> list[EmergencyEvent]:
+        """Read the resource once and return the events it brings (none if it cannot be read)."""
+        resource = await read_json_resource(client, EMERGENCY_VEHICLES_URI, missing=logging.INFO)
+        if resource is None:
+            return []
+        try:
+            events = self.detector.update_json(resource)
+        except ValueError as error:
+            logging.getLogger(__name__).warning("%s: %s", EMERGENCY_VEHICLES_URI, error)
+            return []
+        self.last_read_s = _number(resource.get("time_s"))
+        return events

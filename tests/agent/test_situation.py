@@ -1,0 +1,91 @@
+"""The agent reads the situation through MCP resources and wakes itself on emergency vehicles it watches there:
+in-process (lockstep and realtime, subscribed to the resource) and across a process boundary over HTTP."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from agentic_mpc.agent import Agent, AgentConfig
+from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig
+from agentic_mpc.agent.backends.rules import RulesBackend
+from agentic_mpc.agent.situation import describe_situation
+from agentic_mpc.run.loop import AgentSetup
+from tests.agent.conftest import ambulance_loop
+from tests.agent.scripted_llm import ScriptedLLM, calls, text, tool_call
+from tests.mcp.test_http_security import Served
+
+EGO = {"time_s": 12.34, "ego": {"id": "ego", "speed_mps": 14.8, "lane_role": "center", "lateral_offset_m": -0.6}}
+AMBULANCE = {"time_s": 12.34, "emergency_vehicles": [
+    {"id": "amb0", "type_id": "ambulance", "relation": "behind", "distance_m": 45.2, "lane_role": "center"}]}
+SPEC = {"summary": "path_tracking(lane=center, v_ref_mps=15); obstacle_avoidance(1 obstacle)"}
+
+
+def test_the_situation_in_a_few_lines_from_the_resources_json():
+    said = describe_situation(EGO, AMBULANCE, SPEC)
+    assert said.splitlines() == [
+        "Current situation (t = 12.3 s):",
+        "- we drive at 14.8 m/s (53 km/h) in the center lane 0.6 m right of its centre",
+        "- emergency vehicle ambulance 'amb0' 45 m behind us, in the center lane",
+        "- attached: path_tracking(lane=center, v_ref_mps=15); obstacle_avoidance(1 obstacle)",
+    ]
+    assert "no emergency vehicle around" in describe_situation(EGO, {"emergency_vehicles": []}, None)
+    assert describe_situation(None, None, None) is None  # a server without the resources
+
+
+def test_a_language_model_gets_the_situation_read_over_mcp_with_the_message(loop, server):
+    for _ in range(50):  # 2 s of driving: the situation has a time and a speed
+        loop.step()
+    script = [calls(tool_call("set_reference_speed", {"v_ref": 10}, "c1")), text("Slower now.")]
+    with ScriptedLLM(script) as llm, Agent(OpenAIBackend(OpenAIConfig(base_url=llm.base_url, api_key_env=None)),
+                                           server) as agent:
+        report = agent.deliver("Please slow down to 36 km/h.").result(30)
+    assert report.applied_calls == [{"tool": "set_reference_speed", "arguments": {"v_ref": 10}}]
+    user = llm.requests[0]["messages"][1]
+    assert user["role"] == "user" and user["content"].startswith("Current situation (t = 2.0 s):")
+    assert "in the center lane" in user["content"] and "no emergency vehicle around" in user["content"]
+    assert "- attached: path_tracking(lane=center, v_ref_mps=15)" in user["content"]
+    assert user["content"].endswith("\n\nPassenger: Please slow down to 36 km/h.")
+    recorded = next(r for r in agent.transcript.records if r.get("role") == "user")
+    assert recorded["content"] == "Please slow down to 36 km/h." and recorded["context"].startswith("Current")
+
+
+def test_the_rules_backend_is_given_no_situation(loop, server):
+    with Agent(RulesBackend(), server) as agent:
+        agent.deliver("Please slow down to 36 km/h.").result(30)
+    assert "context" not in next(r for r in agent.transcript.records if r.get("role") == "user")
+
+
+def test_a_realtime_agent_subscribed_to_emergency_vehicles_wakes_itself_and_makes_way():
+    config = AgentConfig(timing="realtime")
+    with ambulance_loop(agent=AgentSetup(RulesBackend(), config, observation_messages=True), pace=0.25) as loop:
+        driving = threading.Thread(target=loop.run, daemon=True)
+        driving.start()
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and "lane=left" not in loop.slot.current.summary():
+            time.sleep(0.1)
+        loop.stop.set()
+        driving.join(10)
+        observations = [m for m in loop.agent.history.messages if m.source == "observation"]
+    assert observations and "is approaching from behind" in observations[0].content
+    # it read the ambulance within the alert distance (80 m), as the loop's own detector saw it
+    seen_at = float(observations[0].content.split("t = ")[1].split(" s")[0])
+    assert abs(seen_at - loop.detector.first_times_s["emergency_vehicle_approaching"]) < 0.5
+    assert "lane=left" in loop.slot.current.summary()
+
+
+def test_an_agent_in_another_process_watches_the_server_over_http(tmp_path):
+    served = Served(tmp_path, "--ambulance-at-s", "1", "--time-scale", "0.25", "--duration-s", "120")
+    try:
+        config = AgentConfig(timing="realtime", watch_emergency_vehicles=True)
+        with Agent(RulesBackend(yield_lane="left"), served.url, config) as agent:
+            deadline = time.monotonic() + 40
+            while time.monotonic() < deadline and not any(
+                    r.get("event") == "tool_call" for r in agent.transcript.records):
+                time.sleep(0.2)
+            records = agent.transcript.records
+    finally:
+        served.stop()
+    woke = [r for r in records if r.get("event") == "message" and r.get("source") == "observation"]
+    assert woke and "is approaching from behind" in woke[0]["content"]
+    assert [r["tool"] for r in records if r.get("event") == "tool_call"][:1] == ["run_left_lane"]
