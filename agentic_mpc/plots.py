@@ -1,5 +1,7 @@
 """Figures people would rather look at than read: bird's-eye trajectories over the road (the paper's Figures
-3 and 4, colours by variant), speed and lateral offset over time with the agent's tool calls marked, and the
+3 and 4, colours by variant) with zoomed panels where things happen (:mod:`agentic_mpc.plot_panels`: around
+each stopped car, where the ambulance passes, the agent's tool calls and the ego's manoeuvres, vehicles drawn
+as their footprints), speed and lateral offset over time with the agent's tool calls marked, and the
 ambulance's distance to the ego. One run's ``trajectory.png`` (:func:`run_figure`), a batch's figures per
 scenario (:func:`batch_figures`) and the obstacle demo's (:func:`birds_eye`, :func:`time_series`).
 
@@ -22,6 +24,9 @@ import pandas as pd
 from matplotlib.patches import Circle as CirclePatch
 
 from agentic_mpc.geometry import LanePath
+from agentic_mpc.plot_zoom import RunFiles, read_run, zoom_windows
+from agentic_mpc.plot_zoom import ambulance_distance as _ambulance_distance
+from agentic_mpc.plot_zoom import tool_calls as _tool_calls
 from agentic_mpc.primitives import Circle
 
 VARIANT_COLOURS = {"no_message": "0.35", "unaware": "0.35", "message_right": "tab:red", "message_left": "tab:blue",
@@ -80,40 +85,6 @@ def _mark_events(axes: Sequence[Any], marks: Iterable[tuple[float, str]]) -> Non
                          color="tab:green")
 
 
-def _tool_calls(events: pd.DataFrame) -> list[tuple[float, str]]:
-    """(time the call took effect, ``tool(arguments)``) of each of the agent's tool calls."""
-    if events.empty:
-        return []
-    marks = []
-    for _, call in events[events["event"] == "tool_call"].iterrows():
-        at = call["apply_at_s"] if pd.notna(call.get("apply_at_s")) else call["sim_time_s"]
-        if pd.notna(at):
-            arguments = call["arguments"]
-            short = arguments.strip("{}").replace('"', "").replace(" ", "") if isinstance(arguments, str) else ""
-            marks.append((float(at), f"{call['tool']}({short})"))
-    return marks
-
-
-def _ambulance_distance(trajectory: pd.DataFrame, traffic: pd.DataFrame) -> pd.DataFrame:
-    """Along-road distance of each emergency vehicle from the ego (negative: behind)."""
-    if traffic.empty or not traffic["emergency"].any():
-        return pd.DataFrame(columns=["time_s", "id", "distance_m"])
-    ambulance = traffic[traffic["emergency"]][["time_s", "id", "road_s_m"]]
-    ego = trajectory[["time_s", "road_s_m"]].rename(columns={"road_s_m": "ego_s_m"})
-    merged = pd.merge_asof(ambulance.sort_values("time_s"), ego.sort_values("time_s"), on="time_s")
-    merged["distance_m"] = merged["road_s_m"] - merged["ego_s_m"]
-    return merged
-
-
-def _focus(ax: Any, frames: list[pd.DataFrame], circles: list[tuple[float, float, float]], margin_m: float = 8.0) -> None:
-    """Zoom on where the ego drove, with equal scales."""
-    xs = np.concatenate([f["x_m"].to_numpy() for f in frames] + [np.array([c[0] for c in circles])])
-    ys = np.concatenate([f["y_m"].to_numpy() for f in frames] + [np.array([c[1] for c in circles])])
-    ax.set_xlim(xs.min() - margin_m, xs.max() + margin_m)
-    ax.set_ylim(ys.min() - margin_m, ys.max() + margin_m)
-    ax.set_aspect("equal", adjustable="box")  # the box takes the road's shape: long and thin on a straight
-
-
 def _save(fig: Any, path: Path, dpi: int) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi)
@@ -121,27 +92,44 @@ def _save(fig: Any, path: Path, dpi: int) -> Path:
     return path
 
 
+def _places_figure(rows: dict[str, list[RunFiles]], colours: dict[str, str], lanes: Sequence[LanePath],
+                   title: str, series_rows: int = 0, width_in: float = 13.0) -> tuple[Any, Any, list[Any]]:
+    """A figure with ``title``, the overview and zoomed panels of ``rows`` (variant: runs) and, below, a
+    grid of ``series_rows`` time-series rows (None without). A fixed layout: no layout engine to run.
+    Returns (figure, that grid, the windows)."""
+    from agentic_mpc.plot_panels import draw_places, places_layout, road_lines
+
+    road = road_lines(list(lanes))
+    runs = [run for variant_runs in rows.values() for run in variant_runs]
+    windows = zoom_windows(runs, road["edges"] or None)
+    layout = places_layout(windows, road, runs, len(rows), width_in)
+    series_in = 2.0 * series_rows + 0.6 if series_rows else 0.0
+    height = 0.45 + layout["height"] + series_in
+    fig = plt.figure(figsize=(width_in, height))
+    fig.suptitle(title, fontsize=11, y=1 - 0.1 / height, va="top")
+    draw_places(fig, 0.45, rows, colours, road, windows, layout)
+    grid = None
+    if series_rows:
+        grid = fig.add_gridspec(series_rows, 1, left=0.8 / width_in, right=1 - 0.8 / width_in, hspace=0.3,
+                                top=1 - (0.45 + layout["height"] + 0.2) / height, bottom=0.5 / height)
+    return fig, grid, windows
+
+
 def run_figure(out_dir: Path, world: Any, metrics: Any, title: str = "") -> Path:
     """``trajectory.png`` of one run in ``out_dir`` (from its trajectory, traffic and events CSV files):
-    bird's-eye view over ``world``'s lanes and ``metrics``' obstacles, speed with the ambulance's distance,
-    lateral offset, acceleration with the MPPI effective sample size, the agent's tool calls marked."""
+    bird's-eye overview over ``world``'s lanes and ``metrics``' obstacles with zoomed panels where things
+    happen, speed with the ambulance's distance, lateral offset, acceleration with the MPPI effective sample
+    size, the agent's tool calls and the panels' moments marked."""
     out_dir = Path(out_dir)
-    trajectory = pd.read_csv(out_dir / "trajectory.csv")
-    traffic = pd.read_csv(out_dir / "traffic.csv")
-    events = pd.read_csv(out_dir / "events.csv")
-    circles = [(c.x_m, c.y_m, c.radius_m) for track in metrics.obstacles for c in track.circles]
-    fig = plt.figure(figsize=(11, 9))
-    grid = fig.add_gridspec(4, 1, height_ratios=[0.7, 1, 1, 1])
-    ax_map = fig.add_subplot(grid[0])
-    _draw_road(ax_map, _lanes_of(world))
-    _draw_obstacles(ax_map, circles)
-    ax_map.plot(trajectory["x_m"], trajectory["y_m"], color="tab:blue", lw=1.5, label="ego")
-    for vehicle_id, track in traffic[traffic["emergency"]].groupby("id") if not traffic.empty else []:
-        ax_map.plot(track["x_m"], track["y_m"], color="tab:red", lw=1, ls=":", label=f"{vehicle_id} (emergency)")
-    _focus(ax_map, [trajectory], circles)
-    ax_map.set_title(title)
-    ax_map.legend(loc="upper right", fontsize=8)
-    ax_v = fig.add_subplot(grid[1])
+    obstacles = [(track.id, np.array([[c.x_m, c.y_m, c.radius_m] for c in track.circles]))
+                 for track in metrics.obstacles if track.circles]
+    run = read_run(out_dir, obstacles)
+    trajectory, traffic = run.trajectory, run.traffic
+    fig, grid, windows = _places_figure({"ego path": [run]}, {"ego path": "#16a34a"}, _lanes_of(world), title,
+                                        series_rows=3)
+    ax_v, ax_y, ax_a = (fig.add_subplot(grid[i]) for i in range(3))
+    ax_y.sharex(ax_v)
+    ax_a.sharex(ax_v)
     ax_v.plot(trajectory["time_s"], trajectory["v_mps"], color="tab:blue", label="speed")
     if "v_ref_mps" in trajectory:
         ax_v.plot(trajectory["time_s"], trajectory["v_ref_mps"], color="k", lw=0.8, ls=":", label="v_ref")
@@ -153,17 +141,29 @@ def run_figure(out_dir: Path, world: Any, metrics: Any, title: str = "") -> Path
             ax_d.plot(track["time_s"], track["distance_m"], color="tab:red", lw=0.8, ls="--", label=f"{vehicle_id} distance")
         ax_d.axhline(0, color="tab:red", lw=0.4)
         ax_d.set_ylabel("ambulance - ego [m]", color="tab:red")
-    ax_y = fig.add_subplot(grid[2], sharex=ax_v)
-    ax_y.plot(trajectory["time_s"], trajectory["tracked_lane_offset_m"], color="tab:blue", label="from tracked lane")
-    ax_y.plot(trajectory["time_s"], trajectory["lateral_offset_m"], color="0.6", lw=0.8, label="from current lane")
+    if "tracked_lane_offset_m" in trajectory:
+        ax_y.plot(trajectory["time_s"], trajectory["tracked_lane_offset_m"], color="tab:blue", label="from tracked lane")
+    if "lateral_offset_m" in trajectory:
+        ax_y.plot(trajectory["time_s"], trajectory["lateral_offset_m"], color="0.6", lw=0.8, label="from current lane")
     ax_y.set_ylabel("lateral offset [m]")
     ax_y.legend(fontsize=8, loc="upper right")
-    ax_a = fig.add_subplot(grid[3], sharex=ax_v)
     _acceleration_and_ess(ax_a, trajectory)
     ax_a.set_xlabel("time [s]")
-    _mark_events([ax_v, ax_y, ax_a], _tool_calls(events))
-    fig.tight_layout()
+    _mark_events([ax_v, ax_y, ax_a], _tool_calls(run.events))
+    _mark_panels(ax_v, run, windows)
     return _save(fig, out_dir / "trajectory.png", dpi=110)
+
+
+def _mark_panels(ax: Any, run: RunFiles, windows: list[Any]) -> None:
+    """The moments the zoomed panels show, as numbered ticks along the top of ``ax``."""
+    from agentic_mpc.plot_zoom import snapshot_time
+
+    for number, window in enumerate(windows, 1):
+        at = snapshot_time(run, window)
+        if at is not None:
+            ax.annotate(f"[{number}]", (at, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2),
+                        textcoords="offset points", ha="center", va="bottom", fontsize=8, fontweight="bold")
+            ax.axvline(at, color="k", lw=0.6, alpha=0.5)
 
 
 def _acceleration_and_ess(ax: Any, trajectory: pd.DataFrame) -> None:
@@ -196,39 +196,28 @@ def batch_figures(batch_dir: Path, road_of: Callable[[Path], Any]) -> list[Path]
         if not runs:
             continue
         variants = sorted({r.parent.parent.name for r in runs})
-        fig, ax = plt.subplots(figsize=(11, 4.5), layout="constrained")
-        _draw_road(ax, _lanes_of(road_of(runs[0].parent / "scenario.json")))
-        frames = []
-        circles: list[tuple[float, float, float]] = []
+        colours = {variant: colour_of(variant, variants) for variant in variants}
+        rows: dict[str, list[RunFiles]] = {variant: [] for variant in variants}
         labelled: set[str] = set()
         fig_t, (ax_v, ax_y, ax_a, ax_d) = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
         for run in runs:
             variant = run.parent.parent.name
-            colour = colour_of(variant, variants)
+            colour = colours[variant]
             label = None if variant in labelled else variant
             labelled.add(variant)
-            trajectory = pd.read_csv(run)
-            frames.append(trajectory)
-            ax.plot(trajectory["x_m"], trajectory["y_m"], color=colour, lw=1, alpha=0.8, label=label)
+            files = read_run(run.parent, variant=variant)
+            rows[variant].append(files)
+            trajectory = files.trajectory
             ax_v.plot(trajectory["time_s"], trajectory["v_mps"], color=colour, lw=0.8, alpha=0.8, label=label)
             ax_y.plot(trajectory["time_s"], trajectory["tracked_lane_offset_m"], color=colour, lw=0.8, alpha=0.8)
             if "accel_mps2" in trajectory:
                 ax_a.plot(trajectory["time_s"], trajectory["accel_mps2"], color=colour, lw=0.6, alpha=0.8)
-            traffic_file = run.parent / "traffic.csv"
-            if traffic_file.exists():
-                distance = _ambulance_distance(trajectory, pd.read_csv(traffic_file))
-                for _, track in distance.groupby("id"):
-                    ax_d.plot(track["time_s"], track["distance_m"], color=colour, lw=0.8, alpha=0.8)
-            obstacles_file = run.parent / "obstacles.csv"
-            if obstacles_file.exists() and not circles:
-                circles = [tuple(row) for row in pd.read_csv(obstacles_file)[["x_m", "y_m", "radius_m"]].to_numpy()]
-        _draw_obstacles(ax, circles)
-        _focus(ax, frames, circles)
-        ax.set_title(f"{scenario_dir.name}: {len(runs)} runs, colours by variant")
-        ax.legend(fontsize=8, loc="upper right")
-        width, height = np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim())
-        fig.set_size_inches(11, float(np.clip(11 * height / width + 1.2, 2.6, 9)))  # the road's own shape
-        path = _save(fig, batch_dir / f"{scenario_dir.name}_trajectories.png", dpi=120)
+            for _, track in _ambulance_distance(trajectory, files.traffic).groupby("id"):
+                ax_d.plot(track["time_s"], track["distance_m"], color=colour, lw=0.8, alpha=0.8)
+        title = (f"{scenario_dir.name}: {len(runs)} runs, colours by variant; the vehicles of each variant's "
+                 "first run at the moment shown")
+        fig, _, _ = _places_figure(rows, colours, _lanes_of(road_of(runs[0].parent / "scenario.json")), title)
+        path = _save(fig, batch_dir / f"{scenario_dir.name}_trajectories.png", dpi=110)
         ax_v.set_ylabel("speed [m/s]")
         ax_y.set_ylabel("offset from tracked lane [m]")
         ax_a.set_ylabel("acceleration [m/s$^2$]")
@@ -249,7 +238,12 @@ def birds_eye(
     lane_width_m: float = 3.5,
     x_range_m: tuple[float, float] | None = None,
 ) -> Path:
-    """Trajectories (each an (N, >=2) array of x, y) of every variant over lanes and obstacles."""
+    """Trajectories (each an (N, >=2) array of x, y[, heading]) of every variant over lanes and obstacles.
+    Without ``x_range_m`` the view zooms to the obstacles (45 m before the first to 30 m after the last).
+    Where the states have a heading, each variant's first run is drawn as its footprint where it comes
+    closest to the first obstacle."""
+    from agentic_mpc.plot_panels import footprint
+
     fig, ax = plt.subplots(figsize=(10, 3.6))
     _draw_road(ax, list(lanes), lane_width_m)
     _draw_obstacles(ax, [(o.x_m, o.y_m, o.radius_m) for o in obstacles])
@@ -257,6 +251,13 @@ def birds_eye(
         colour = colour_of(variant, list(trajectories))
         for i, states in enumerate(runs):
             ax.plot(states[:, 0], states[:, 1], color=colour, lw=1, alpha=0.8, label=variant if i == 0 else None)
+        if runs and obstacles and runs[0].shape[1] >= 3:
+            states = runs[0]
+            k = int(np.argmin(np.hypot(states[:, 0] - obstacles[0].x_m, states[:, 1] - obstacles[0].y_m)))
+            for patch in footprint(ax, lambda xy: xy, *states[k, :3], 4.5, 1.8, "ego", alpha=0.55):
+                patch.set_edgecolor(colour)
+    if x_range_m is None and obstacles:
+        x_range_m = (min(o.x_m for o in obstacles) - 45.0, max(o.x_m for o in obstacles) + 30.0)
     if x_range_m:  # a window along a straight road: keep the lanes, not the whole road, in view
         ax.set_xlim(*x_range_m)
         lane_y = np.concatenate([lane.coordinates[:, 1] for lane in lanes])

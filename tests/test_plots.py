@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.patches import Polygon
 
 from agentic_mpc import plots
 from agentic_mpc.cli import main
@@ -39,7 +41,8 @@ class FakeWorld:
         return self._lanes
 
 
-def write_run(directory: Path, variant_shift_m: float = 0.0, ambulance: bool = True) -> Path:
+def write_run(directory: Path, variant_shift_m: float = 0.0, ambulance: bool = True,
+              ambulance_speed_mps: float = 20.0) -> Path:
     """A run directory as the recorder writes it (no scenario.json)."""
     directory.mkdir(parents=True, exist_ok=True)
     t = np.arange(0.0, 8.0, 0.1)
@@ -49,8 +52,9 @@ def write_run(directory: Path, variant_shift_m: float = 0.0, ambulance: bool = T
                   "road_s_m": x, "tracked_lane_offset_m": y, "lateral_offset_m": y}).to_csv(
         directory / "trajectory.csv", index=False)
     traffic = pd.DataFrame(
-        [{"time_s": s, "id": "ambulance", "type_id": "emergency", "vclass": "emergency", "x_m": 20.0 * s - 60.0,
-          "y_m": 0.0, "heading_rad": 0.0, "speed_mps": 20.0, "lane_id": "e_1", "road_s_m": 20.0 * s - 60.0,
+        [{"time_s": s, "id": "ambulance", "type_id": "emergency", "vclass": "emergency",
+          "x_m": ambulance_speed_mps * s - 60.0, "y_m": 0.0, "heading_rad": 0.0, "speed_mps": ambulance_speed_mps,
+          "lane_id": "e_1", "road_s_m": ambulance_speed_mps * s - 60.0,
           "gap_m": 1.0, "relation": "behind", "emergency": True} for s in t[::5]] if ambulance else [],
         columns=list(TRAFFIC_COLUMNS))
     traffic.to_csv(directory / "traffic.csv", index=False)
@@ -111,11 +115,16 @@ def test_run_figure_draws_the_world_lanes_and_the_recorded_obstacles(tmp_path, m
     monkeypatch.setattr(plots, "_save", keep)
     path = plots.run_figure(run, FakeWorld(), metrics, title="synthetic")
     assert path == run / "trajectory.png" and path.stat().st_size > 10_000
-    ax_map = drawn["fig"].axes[0]
-    _, centres = solid_and_dashed(ax_map)
-    assert len(centres) == 3 and len(ax_map.patches) == 1 and ax_map.get_title() == "synthetic"
-    assert {label.get_text() for label in ax_map.get_legend().get_texts()} == {"ego", "ambulance (emergency)"}
-    assert any("set_preferred_steering_direction(direction:left)" in t.get_text() for t in drawn["fig"].axes[1].texts)
+    fig = drawn["fig"]
+    overview = fig.axes[0]
+    assert len([line for line in overview.get_lines() if line.get_linestyle() == ":"]) == 3  # the lane centres
+    assert fig.get_suptitle() == "synthetic"
+    assert {label.get_text() for label in overview.get_legend().get_texts()} >= {"ego", "emergency vehicle"}
+    panels = [ax for ax in fig.axes[1:] if ax.get_aspect() == 1.0]
+    assert panels and all(len(ax.patches) >= 2 for ax in panels)  # footprints (body and windscreen) in each
+    assert any("[1] " in ax.get_title(loc="left") for ax in panels)
+    texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+    assert any("set_preferred_steering_direction(direction:left)" in t for t in texts)
 
 
 def test_run_figure_without_a_road_or_traffic(tmp_path):
@@ -151,6 +160,24 @@ def test_birds_eye_and_time_series_for_the_demo(tmp_path):
     assert out.stat().st_size > 10_000 and out_t.stat().st_size > 10_000
 
 
+def test_birds_eye_without_a_range_zooms_to_the_obstacle_and_draws_the_ego_where_it_passes(tmp_path, monkeypatch):
+    t = np.linspace(0.0, 20.0, 200)
+    states = np.column_stack([15.0 * t, np.zeros_like(t), np.zeros_like(t), np.full_like(t, 15.0)])
+    lanes = [LanePath.straight((0.0, 0.0), (400.0, 0.0)), LanePath.straight((0.0, 3.5), (400.0, 3.5))]
+    drawn, save = {}, plots._save
+
+    def keep(fig, path, dpi):
+        drawn["ax"] = fig.axes[0]
+        return save(fig, path, dpi)
+
+    monkeypatch.setattr(plots, "_save", keep)
+    plots.birds_eye({"no_message": [states]}, lanes, [Circle(x_m=200.0, y_m=3.5, radius_m=2.0)], tmp_path / "b.png")
+    x0, x1 = drawn["ax"].get_xlim()
+    assert x0 <= 200.0 <= x1 and x1 - x0 < 100  # not the 300 m driven
+    body = next(p for p in drawn["ax"].patches if isinstance(p, Polygon))
+    assert body.get_xy()[:4, 0].mean() == pytest.approx(200.0, abs=1.6)  # the ego alongside the obstacle
+
+
 def test_lanes_of_rebuilds_a_plain_world_and_a_sumo_road(tmp_path):
     run = write_run(tmp_path / "runs" / "s" / "v" / "seed-0")
     write_scenario(run, "v", {"plain_world": PLAIN_WORLD})
@@ -183,3 +210,82 @@ def test_nothing_imports_the_plots_at_package_import_time():
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False)
     assert result.returncode == 0, result.stderr
     assert result.stdout.split()[0] == "False"
+
+
+def test_zoom_windows_hold_the_obstacle_and_the_ambulance_pass_and_are_much_smaller_than_the_road(tmp_path):
+    from agentic_mpc.plot_panels import road_lines
+    from agentic_mpc.plot_zoom import find_events, read_run, zoom_windows
+
+    run = read_run(write_run(tmp_path / "run", variant_shift_m=2.0, ambulance_speed_mps=30.0))  # passes at t = 4 s
+    kinds = {e.kind: e for e in find_events(run)}
+    assert kinds["ambulance passes"].t == pytest.approx(4.0, abs=0.6) and kinds["obstacle"].x == 45.0
+    road = road_lines(list(FakeWorld().lanes().lanes.values()))
+    windows = zoom_windows([run], road["edges"])
+    road_length = 420.0
+    obstacle_window = next(w for w in windows if any(e.kind == "obstacle" for e in w.events))
+    assert obstacle_window.contains(45.0, 0.0) and obstacle_window.contains(45.0, 2.0)
+    assert obstacle_window.length_m < road_length / 5
+    width = obstacle_window.across[1] - obstacle_window.across[0]
+    assert 3 * 3.2 <= width <= 3 * 3.2 + 8  # the road's three lanes and a margin, not the whole plot
+    passing = next(w for w in windows if any(e.kind == "ambulance passes" for e in w.events))
+    x_pass = 15.0 * kinds["ambulance passes"].t
+    assert passing.contains(x_pass, 0.0) and passing.length_m < road_length / 5
+    assert not passing.turned and passing.heading_rad == 0.0  # a road along +x keeps world coordinates
+
+
+def test_zoom_windows_turn_with_a_diagonal_road_and_an_ambulance_held_up_behind_is_in_its_window(tmp_path):
+    from agentic_mpc.plot_zoom import find_events, read_run, zoom_windows
+
+    run_dir = write_run(tmp_path / "run")  # the ambulance never passes: it is held up 22.5 m behind at the end
+    angle = math.radians(30.0)
+    for name, columns in (("trajectory.csv", ("x_m", "y_m")), ("traffic.csv", ("x_m", "y_m")),
+                          ("obstacles.csv", ("x_m", "y_m"))):
+        table = pd.read_csv(run_dir / name)
+        x, y = table[columns[0]].to_numpy(), table[columns[1]].to_numpy()
+        table[columns[0]] = x * math.cos(angle) - y * math.sin(angle)
+        table[columns[1]] = x * math.sin(angle) + y * math.cos(angle)
+        table.to_csv(run_dir / name, index=False)
+    run = read_run(run_dir)
+    held = next(e for e in find_events(run) if e.kind == "ambulance held up")
+    windows = zoom_windows([run])
+    window = next(w for w in windows if held in w.events)
+    ambulance = run.traffic.iloc[-1]
+    assert window.turned and window.heading_rad == pytest.approx(angle, abs=0.02)
+    assert window.contains(ambulance["x_m"], ambulance["y_m"]) and window.contains(held.x, held.y)
+    _, v = window.view(np.array([[held.x, held.y]]))[0]
+    assert abs(v) < 1.0  # across the turned view the ego is near the middle
+
+
+def test_footprints_are_the_vehicles_real_rectangles_turned_with_their_heading():
+    from agentic_mpc.plot_panels import footprint
+
+    fig, ax = plt.subplots()
+    body, screen = footprint(ax, lambda xy: xy, 10.0, 5.0, math.pi / 2, 6.5, 2.2, "emergency")
+    plt.close(fig)
+    corners = body.get_xy()[:4]
+    assert np.ptp(corners[:, 1]) == pytest.approx(6.5) and np.ptp(corners[:, 0]) == pytest.approx(2.2)
+    assert corners.mean(axis=0) == pytest.approx([10.0, 5.0])
+    assert screen.get_xy()[:4, 1].mean() > 5.0  # the windscreen is at the front (heading +y)
+    assert body.get_facecolor()[:3] == pytest.approx((0xDC / 255, 0x26 / 255, 0x26 / 255))
+
+
+def test_batch_figure_has_a_row_of_zoomed_panels_per_variant(tmp_path, monkeypatch):
+    for variant, shift in (("message_left", 2.0), ("message_right", -2.0)):
+        write_run(tmp_path / "runs" / "steering" / variant / "seed-0", shift, ambulance_speed_mps=30.0)
+    figures, save = [], plots._save
+
+    def keep(fig, path, dpi):
+        figures.append(fig)
+        return save(fig, path, dpi)
+
+    monkeypatch.setattr(plots, "_save", keep)
+    written = plots.batch_figures(tmp_path, lambda _: FakeWorld())
+    trajectories = figures[0]
+    panels = list(trajectories.axes[1:])
+    columns = {round(ax.get_position().x0, 3) for ax in panels}
+    assert len(panels) == 2 * len(columns) and len(columns) >= 1  # two variants x the places
+    assert {ax.get_ylabel() for ax in panels if ax.get_ylabel()} == {"message left", "message right"}
+    for ax in panels:
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        assert x1 - x0 < 100 and y1 - y0 < 25  # zoomed: tens of metres, not the 420 m road
+    assert written[0].stat().st_size > 20_000

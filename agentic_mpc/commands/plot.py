@@ -3,6 +3,9 @@
 A run (DIR has trajectory.csv): its ``trajectory.png`` is redrawn. A batch (DIR has runs/): per scenario,
 ``<scenario>_trajectories.png`` (every trial over the road, colours by variant; the paper's Figures 3 and
 4) and ``<scenario>_timeseries.png`` (speed, offset from the tracked lane, ambulance distance).
+The bird's-eye views zoom to where things happen: a thin overview of the road with numbered windows, then a
+row of panels per variant around each stopped car, where the ambulance passes the ego, the agent's tool
+calls and the ego's lane changes, with the vehicles drawn as their footprints at one moment.
 The road comes from the run's saved ``scenario.json`` (SUMO's network, or the plain world); no simulation runs.
 """
 
