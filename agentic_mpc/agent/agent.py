@@ -24,23 +24,21 @@ Timing modes (``AgentConfig.timing``):
   the simulation reaches t + latency_s, as if the agent had thought for ``latency_s``. With a deterministic
   backend the whole run is deterministic.
 
-Wiring it to a simulation is the run loop's job (:mod:`agentic_mpc.run.loop`): it builds the tools and the
-MCP server over the world, starts the agent on that server, and each control step applies the due lockstep
-changes, steps the world and publishes the observation to the server; passenger messages and observation
-messages (emergency-vehicle events, :mod:`agentic_mpc.world.emergency`) go to :meth:`Agent.deliver` at their
-sim time.
+The run loop (:mod:`agentic_mpc.run.loop`) wires it to a simulation. What the agent knows of the moment it
+reads over MCP too (:mod:`agentic_mpc.agent.situation`): each step's situation, and the emergency watch.
 
 Bad input never stops the car: empty, oversized or non-text messages are rejected before they become a step;
 unknown tools, unparseable or schema-violating arguments (including NaN) are answered with a tool error
-message (the backend may correct itself, at most ``max_consecutive_errors`` rounds in a row); an unreachable
-or timed-out backend is retried ``backend_attempts`` times, then the step ends. Each of these is recorded in
-the transcript (JSONL, see :mod:`agentic_mpc.agent.transcript`) and logged; the controller keeps its last
-valid specification.
+message (the backend may correct itself, at most ``max_consecutive_errors`` rounds in a row); calls it
+already made in the step end it; an unreachable or timed-out backend is retried ``backend_attempts`` times,
+then the step ends. Each is in the transcript (:mod:`agentic_mpc.agent.transcript`) and the log; the
+controller keeps its last valid specification.
 """
 
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 import math
 import threading
@@ -61,7 +59,6 @@ from agentic_mpc.agent.situation import EmergencyWatch, read_situation
 from agentic_mpc.agent.transcript import Transcript
 from agentic_mpc.mcp.protocol import (
     APPLY_AT_META_KEY,
-    EMERGENCY_VEHICLES_URI,
     INITIAL_SPECIFICATION_URI,
     ROAD_URI,
     validate_arguments,
@@ -261,19 +258,13 @@ class Agent:
         return future
 
     async def _listen(self, client: Client) -> None:
-        """Realtime: wake on every update of ``sumo://emergency-vehicles`` the server announces."""
-        try:
-            async with client.listen(resource_subscriptions=[EMERGENCY_VEHICLES_URI]) as updates:
-                async for _ in updates:
-                    if not self._watch_queued and self._queue is not None:
-                        self._watch_queued = True
-                        self._queue.put_nowait((WatchRequest(None), Future()))
-        except asyncio.CancelledError:
-            raise
-        except Exception as error:  # the server cannot notify: say so once; messages still reach the agent
-            logger.warning("no updates of %s: %s; the agent will not wake on emergency vehicles", EMERGENCY_VEHICLES_URI,
-                           error)
-            self.transcript.record("watch_error", tau=self.history.tau, sim_time_s=self._now(None), error=str(error))
+        """Realtime: queue a check on every update of ``sumo://emergency-vehicles`` (one pending is enough)."""
+        def wake() -> None:
+            if not self._watch_queued and self._queue is not None:
+                self._watch_queued = True
+                self._queue.put_nowait((WatchRequest(None), Future()))
+        error = await self._watch.listen(client, wake)  # returns only if the server cannot notify
+        self.transcript.record("watch_error", tau=self.history.tau, sim_time_s=self._now(None), error=error)
 
     async def _watch_step(self, client: Client, sim_time_s: float | None) -> list[StepReport]:
         self._watch_queued = False
@@ -299,6 +290,7 @@ class Agent:
         user = self._append(incoming)
         report = StepReport(user.content, user.source or "user", user.sim_time_s, first_tau=user.tau)
         consecutive_errors = 0
+        made: set[str] = set()  # the calls this step ran successfully, to stop a model that repeats them
         for _ in range(self.config.max_rounds_per_step):
             try:
                 reply = await self._complete(frozen)
@@ -314,6 +306,11 @@ class Agent:
             if not calls:
                 report.ended = "idle"
                 break
+            if made and all(_call_key(call) in made for call in calls):
+                report.ended = "repeated"
+                self.transcript.record("repeated_calls", tau=agent_message.tau, sim_time_s=self._now(frozen),
+                                       calls=[call.describe() for call in calls])
+                break
             failures = 0
             for index, call in enumerate(calls):
                 if index >= self.config.max_tool_calls_per_round:
@@ -327,6 +324,8 @@ class Agent:
                 if apply_at is not None:
                     entry["apply_at_s"] = apply_at
                 report.tool_calls.append(entry)
+                if not stamped.is_error:
+                    made.add(_call_key(call))
                 if stamped.is_error:
                     failures += 1
                     report.errors.append(f"{call.name}: {stamped.content}")
@@ -414,3 +413,7 @@ class Agent:
             is_error=message.is_error, **outcome,
         )
         return message
+
+
+def _call_key(call: ToolCall) -> str:
+    return f"{call.name}:{json.dumps(call.arguments, sort_keys=True, default=str)}"

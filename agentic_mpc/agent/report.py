@@ -22,7 +22,9 @@ class StepReport:
     text: str = ""
     """The agent's last text."""
     errors: list[str] = field(default_factory=list)
-    ended: Literal["idle", "backend_error", "gave_up", "round_limit", "rejected", "closed"] = "idle"
+    ended: Literal["idle", "backend_error", "gave_up", "round_limit", "repeated", "rejected", "closed"] = "idle"
+    """``repeated``: the backend asked again for calls it had made in this step (a small model that sees no
+    end to its task); they were not run again and the step ended."""
 
     @property
     def applied_calls(self) -> list[dict[str, Any]]:

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Any
 
 from agentic_mpc.agent.connect import read_json_resource
@@ -82,3 +83,16 @@ class EmergencyWatch:
             return []
         self.last_read_s = _number(resource.get("time_s"))
         return events
+
+    async def listen(self, client: Any, wake: Callable[[], None]) -> str:
+        """Call ``wake`` on every update of the resource the server announces (subscribed over MCP). Returns
+        only if the subscription fails: why (the agent still gets messages, it just cannot wake itself)."""
+        try:
+            async with client.listen(resource_subscriptions=[EMERGENCY_VEHICLES_URI]) as updates:
+                async for _ in updates:
+                    wake()
+        except Exception as error:  # noqa: BLE001 - any failure: say so once
+            logging.getLogger(__name__).warning("no updates of %s: %s; the agent will not wake on emergency "
+                                                "vehicles", EMERGENCY_VEHICLES_URI, error)
+            return str(error) or type(error).__name__
+        return "the server ended the subscription"

@@ -204,10 +204,14 @@ def test_a_model_that_keeps_writing_unreadable_calls_gives_up_and_changes_nothin
 
 
 def test_an_endless_loop_of_calls_is_bounded(loop, server):
-    script = [text(FENCED)] * 20
+    # every round a different call (the same one again would end the step as "repeated")
+    script = [text(f'```json\n{{"name": "run_left_lane", "arguments": {{"v_ref": {v}}}}}\n```') for v in range(20)]
     with ScriptedLLM(script) as llm, Agent(backend(llm), server, AgentConfig(max_rounds_per_step=4)) as agent:
         report = agent.deliver(PAPER_2A).result(30)
     assert report.ended == "round_limit" and len(llm.requests) == 4 and len(report.applied_calls) == 4
+    with ScriptedLLM([text(FENCED)] * 20) as llm, Agent(backend(llm), server) as agent:
+        report = agent.deliver(PAPER_2A).result(30)
+    assert report.ended == "repeated" and len(llm.requests) == 2 and len(report.applied_calls) == 1
 
 
 def test_prose_is_a_reply_without_a_call_and_without_an_error(loop, server):
@@ -227,3 +231,14 @@ def test_json_schema_mode_through_the_agent(loop, server):
     names = [o["properties"]["name"]["const"] for o in first["response_format"]["json_schema"]["schema"]["oneOf"][:-1]]
     assert "run_left_lane" in names and len(names) == 6
     assert [m["role"] for m in second["messages"]] == ["system", "user", "assistant", "user"]
+
+
+def test_a_model_that_repeats_its_call_ends_the_step_without_running_it_again(loop, server):
+    repeat = calls(tool_call("set_reference_speed", {"v_ref": 10}, "c1"))
+    script = [repeat, calls(tool_call("set_reference_speed", {"v_ref": 10}, "c2")), text("never asked")]
+    with ScriptedLLM(script) as llm, Agent(backend(llm), server) as agent:
+        report = agent.deliver("Please slow down to 36 km/h.").result(30)
+    assert report.ended == "repeated" and len(llm.requests) == 2
+    assert report.applied_calls == [{"tool": "set_reference_speed", "arguments": {"v_ref": 10}}]
+    assert [r["event"] for r in agent.transcript.records].count("tool_call") == 1
+    assert any(r["event"] == "repeated_calls" for r in agent.transcript.records)
