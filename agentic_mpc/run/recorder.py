@@ -1,7 +1,12 @@
 """What a run records, and the files it writes: ``trajectory.csv`` (one row per control step),
 ``traffic.csv`` (the other road users every few steps), ``plan.csv`` (the controller's optimal predicted
 trajectory every few steps, when asked for), ``events.csv`` (messages, tool calls, specification
-changes), ``obstacles.csv`` and ``summary.csv`` (the metrics of :mod:`agentic_mpc.scenario.metrics`)."""
+changes, collisions), ``obstacles.csv`` (J2's discs), ``obstacle_passes.csv`` (one row per obstacle: side,
+clearance, when passed) and ``summary.csv`` (the metrics of :mod:`agentic_mpc.scenario.metrics`).
+
+A ``collision`` row in ``events.csv`` is one contact episode of the ego (not every step in contact): ``source``
+says who saw it first (``sumo`` or ``geometry``), ``content`` the cause and the other vehicle, ``result`` the
+same as JSON (``other``, ``other_type``, ``cause``, ``ego_at_fault``, the two speeds)."""
 
 from __future__ import annotations
 
@@ -12,8 +17,9 @@ from typing import Any
 
 from agentic_mpc.primitives import PathTracking, Specification
 from agentic_mpc.scenario.comfort import add_motion_columns, comfort_summary
-from agentic_mpc.scenario.metrics import MetricsRecorder, ObstacleTrack, summarise
+from agentic_mpc.scenario.metrics import OBSTACLE_COLUMNS, MetricsRecorder, ObstacleTrack, obstacle_rows, summarise
 from agentic_mpc.world.base import World
+from agentic_mpc.world.collisions import CollisionEpisode
 from agentic_mpc.world.observation import Observation
 
 TRAFFIC_COLUMNS = ("time_s", "id", "type_id", "vclass", "x_m", "y_m", "heading_rad", "speed_mps", "lane_id",
@@ -144,7 +150,8 @@ class RunRecorder:
         pd.DataFrame(self.traffic_rows, columns=list(TRAFFIC_COLUMNS)).to_csv(out_dir / "traffic.csv", index=False)
         if self.plan_rows:
             pd.DataFrame(self.plan_rows, columns=["time_s", "k", "x_m", "y_m"]).to_csv(out_dir / "plan.csv", index=False)
-        events = events_table(sorted(transcript + list(self.received_calls) + self.specification_events,
+        collisions = [collision_event(e) for e in self.metrics.collisions.episodes]
+        events = events_table(sorted(transcript + list(self.received_calls) + self.specification_events + collisions,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
         events.to_csv(out_dir / "events.csv", index=False)
         summary: dict[str, Any] = {
@@ -163,7 +170,21 @@ class RunRecorder:
             [(c.label, c.x_m, c.y_m, c.radius_m) for track in self.metrics.obstacles for c in track.circles],
             columns=["id", "x_m", "y_m", "radius_m"],
         ).to_csv(out_dir / "obstacles.csv", index=False)
+        pd.DataFrame(obstacle_rows(self.metrics), columns=list(OBSTACLE_COLUMNS)).to_csv(
+            out_dir / "obstacle_passes.csv", index=False)
         return summary
+
+
+def collision_event(episode: CollisionEpisode) -> dict[str, Any]:
+    """The ``events.csv`` row of one collision episode."""
+    fault = "ego at fault" if episode.ego_at_fault else "ego not at fault"
+    return {
+        "event": "collision", "sim_time_s": round(episode.time_s, 3), "tau": None, "source": episode.source,
+        "content": f"{episode.cause}: ego and {episode.other_id} ({fault})",
+        "result": {"other": episode.other_id, "other_type": episode.other_type, "cause": episode.cause,
+                   "ego_at_fault": episode.ego_at_fault, "ego_speed_mps": round(episode.ego_speed_mps, 3),
+                   "other_speed_mps": round(episode.other_speed_mps, 3)},
+    }
 
 
 def events_table(transcript: list[dict[str, Any]]) -> Any:

@@ -1,7 +1,13 @@
 """The numbers a run is judged by (the columns of ``summary.csv``; meanings in the README).
 
 :class:`MetricsRecorder` sees every observation while the run goes (gaps, time to collision, emergency
-vehicles, obstacle clearance); :func:`summarise` turns that and the trajectory into one row.
+vehicles, obstacle clearance, collision episodes); :func:`summarise` turns that and the trajectory into one
+row, :func:`obstacle_rows` into one row per obstacle (``obstacle_passes.csv``).
+
+Collisions are contact EPISODES of the ego with another road user (SUMO's reports and our own box overlap;
+one episode per vehicle until they have been apart for half a second), each with a cause and whether the ego
+was at fault (:mod:`agentic_mpc.world.collisions`: it struck the one ahead, its own lateral motion / lane
+change brought them together, or it drove into a stopped car or obstacle).
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from agentic_mpc.primitives import Circle
+from agentic_mpc.world.collisions import CollisionTracker
 from agentic_mpc.world.observation import Observation
 
 if TYPE_CHECKING:
@@ -32,6 +39,9 @@ class ObstacleTrack:
     lane_index: int
     min_clearance_m: float = math.inf
     side: str = "none"
+    """The ego's side of the obstacle's lane as it passed it ("left"/"right"), "none" until then."""
+    passed_at_s: float = math.nan
+    """Simulation time at which the ego's centre passed the obstacle's along the road."""
 
 
 @dataclass
@@ -43,6 +53,9 @@ class MetricsRecorder:
     min_ttc_s: float = math.inf
     emergency_time_loss_s: dict[str, float] = field(default_factory=dict)
     ego_collision_pairs: set[tuple[str, str]] = field(default_factory=set)
+    """Every (sorted) pair of ids that touched, the ego one of them, over the run."""
+    collisions: CollisionTracker = field(default_factory=CollisionTracker)
+    """The contact episodes with their causes."""
     _previous_road_s_m: float | None = None
 
     def observe(self, observation: Observation, lateral_of_lane: Any) -> None:
@@ -63,6 +76,7 @@ class MetricsRecorder:
         for collision in observation.collisions:
             if collision.involves_ego:
                 self.ego_collision_pairs.add(tuple(sorted((collision.collider, collision.victim))))
+        self.collisions.update(observation)
         for track in self.obstacles:
             for circle in track.circles:
                 clearance = math.hypot(ego.x_m - circle.x_m, ego.y_m - circle.y_m) - circle.radius_m
@@ -70,6 +84,7 @@ class MetricsRecorder:
             passing = self._previous_road_s_m is not None and self._previous_road_s_m < track.road_s_m <= ego.road_s_m
             if passing and track.side == "none":
                 track.side = "left" if lateral_of_lane(track.lane_index, ego.x_m, ego.y_m) > 0 else "right"
+                track.passed_at_s = observation.time_s
         self._previous_road_s_m = ego.road_s_m
 
     def record_time_loss(self, vehicle_id: str, time_loss_s: float) -> None:
@@ -92,16 +107,15 @@ def summarise(
     obstacle_side = ""
     min_clearance = float("nan")
     if recorder.obstacles:
-        first = recorder.obstacles[0]
-        hit = first.min_clearance_m < 0 or any(first.id in pair for pair in recorder.ego_collision_pairs)
-        obstacle_side = "hit" if hit else first.side
+        obstacle_side = obstacle_outcome(recorder.obstacles[0], recorder)  # the first one; all: obstacle_rows
         min_clearance = min(track.min_clearance_m for track in recorder.obstacles)
     reached = trajectory["road_s_m"] >= goal_s_m if len(trajectory) else pd.Series(dtype=bool)
     solve_ms = trajectory["solve_ms"] if len(trajectory) else pd.Series(dtype=float)
     return {
         "steps": len(trajectory),
         "sim_time_s": round(float(trajectory["time_s"].iloc[-1]) if len(trajectory) else 0.0, 3),
-        "collisions": len(recorder.ego_collision_pairs),
+        "collisions": len(recorder.collisions.episodes),
+        "collisions_ego_at_fault": recorder.collisions.at_fault,
         "reached_goal": bool(reached.any()),
         "obstacle_side": obstacle_side,
         "min_obstacle_clearance_m": finite_or_nan(min_clearance),
@@ -119,3 +133,28 @@ def summarise(
         "controller_ms_median": finite_or_nan(float(solve_ms.median())) if len(solve_ms) else float("nan"),
         "controller_ms_p99": finite_or_nan(float(solve_ms.quantile(0.99))) if len(solve_ms) else float("nan"),
     }
+
+
+def obstacle_outcome(track: ObstacleTrack, recorder: MetricsRecorder) -> str:
+    """"hit" (the ego entered its discs or touched it), else the side it passed on, "none" if it did not."""
+    hit = track.min_clearance_m < 0 or any(track.id in pair for pair in recorder.ego_collision_pairs)
+    return "hit" if hit else track.side
+
+
+OBSTACLE_COLUMNS = ("id", "lane_index", "road_s_m", "side", "min_clearance_m", "passed_at_s")
+
+
+def obstacle_rows(recorder: MetricsRecorder) -> list[dict[str, Any]]:
+    """One row per static obstacle (``obstacle_passes.csv``): how the ego went past EACH of them. ``side`` as
+    the summary's ``obstacle_side`` (which is this for the first obstacle); ``min_clearance_m`` from its own
+    discs (the ego's centre to their boundary, negative inside); ``passed_at_s`` NaN if never passed."""
+
+    def number(value: float) -> float:
+        return round(value, 4) if math.isfinite(value) else float("nan")
+
+    return [
+        {"id": track.id, "lane_index": track.lane_index, "road_s_m": number(track.road_s_m),
+         "side": obstacle_outcome(track, recorder), "min_clearance_m": number(track.min_clearance_m),
+         "passed_at_s": number(track.passed_at_s)}
+        for track in recorder.obstacles
+    ]

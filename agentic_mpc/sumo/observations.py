@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterable, Sequence
 
 from agentic_mpc.sumo.bridge import CollisionRecord, VehicleInfo, VehicleState
 from agentic_mpc.sumo.network import Road
+from agentic_mpc.world.collisions import boxes_overlap
 from agentic_mpc.world.observation import (
     CollisionObservation,
     EgoObservation,
@@ -19,7 +20,6 @@ from agentic_mpc.world.observation import (
     ObstacleObservation,
     Relation,
     VehicleObservation,
-    boxes_overlap,
 )
 
 
@@ -208,6 +208,8 @@ class ObservationBuilder:
             )
             for c in collisions
         ]
+        # Our own footprint check against every vehicle and obstacle: SUMO misses the ego's part in the next
+        # lane (it reports only once the ego's centre is across the line).
         reported = {frozenset((c.collider, c.victim)) for c in collision_obs}
         for other in (*traffic, *obstacles.values()):
             if frozenset((self.ego_id, other.id)) in reported:

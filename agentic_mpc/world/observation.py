@@ -23,6 +23,8 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
+from agentic_mpc.world.collisions import boxes_overlap, corners  # noqa: F401 (re-exported: older imports)
+
 Relation = Literal["ahead", "behind", "alongside"]
 
 JSON_KEYS = ("time_s", "ego", "traffic", "emergency_vehicles", "obstacles", "collisions")
@@ -92,6 +94,8 @@ class VehicleObservation:
     lane_s_m: float | None
     """Arc length of its centre on its lane's path through the road (None off the road): for prediction."""
     lateral_offset_m: float
+    """Signed distance of the centre from its lane's centre line, positive to the left (as the ego's): the
+    collision causes compare the two."""
 
     def to_json(self) -> dict[str, Any]:
         return _rounded(self)
@@ -151,8 +155,10 @@ class ObstacleObservation:
 class CollisionObservation:
     """A collision in the last step: as SUMO reported it, or an overlap of the ego's box we found ourselves.
 
-    Without the sublane model SUMO only checks vehicles on the same lane, so a sideways overlap with a
-    half-changed ego goes unreported there; ``source="geometry"`` records catch those.
+    SUMO does not see the part of the ego that sticks into the next lane (with or without the sublane model)
+    and reports a collision only once the ego's centre is across the line; ``source="geometry"`` records (the
+    box overlap of :mod:`agentic_mpc.world.collisions`) catch those. They are per step: the metrics count
+    contact episodes and their causes with :class:`~agentic_mpc.world.collisions.CollisionTracker`.
     """
 
     collider: str
@@ -200,26 +206,3 @@ class Observation:
     @property
     def ego_collided(self) -> bool:
         return any(c.involves_ego for c in self.collisions)
-
-
-def corners(x: float, y: float, heading: float, length: float, width: float) -> list[tuple[float, float]]:
-    c, s = math.cos(heading), math.sin(heading)
-    hl, hw = 0.5 * length, 0.5 * width
-    return [(x + c * a - s * b, y + s * a + c * b) for a, b in ((hl, hw), (hl, -hw), (-hl, -hw), (-hl, hw))]
-
-
-def boxes_overlap(a: Any, b: Any) -> bool:
-    """Separating-axis test of two oriented rectangles (x_m, y_m, heading_rad, length_m, width_m)."""
-    reach = 0.5 * (math.hypot(a.length_m, a.width_m) + math.hypot(b.length_m, b.width_m))
-    if (a.x_m - b.x_m) ** 2 + (a.y_m - b.y_m) ** 2 > reach * reach:
-        return False
-    ca = corners(a.x_m, a.y_m, a.heading_rad, a.length_m, a.width_m)
-    cb = corners(b.x_m, b.y_m, b.heading_rad, b.length_m, b.width_m)
-    for heading in (a.heading_rad, b.heading_rad):
-        c, s = math.cos(heading), math.sin(heading)
-        for ax, ay in ((c, s), (-s, c)):
-            pa = [x * ax + y * ay for x, y in ca]
-            pb = [x * ax + y * ay for x, y in cb]
-            if max(pa) < min(pb) or max(pb) < min(pa):
-                return False
-    return True

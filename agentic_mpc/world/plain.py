@@ -17,6 +17,7 @@ from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import Circle, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
+from agentic_mpc.world.collisions import boxes_overlap
 from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import (
     CollisionObservation,
@@ -30,7 +31,7 @@ from agentic_mpc.world.plain_config import ROLES, PlainConfig, ScriptedVehicle
 
 EGO_LENGTH_M, EGO_WIDTH_M = 4.5, 1.8
 EGO_RADIUS_M = 1.5
-"""Radius of the disc standing for the ego in collision checks and J0's discs."""
+"""Radius of the disc standing for the ego in J0's discs (collisions use its box)."""
 SENSING_RANGE_M = 150.0
 
 
@@ -215,14 +216,14 @@ class PlainWorld:
                 o.id, "obstacle", o.x_m, o.y_m, 0.0, 2.0 * o.radius_m, 2.0 * o.radius_m, role, road.index_of(role),
                 role, o.x_m - road.start_x_m, offset, gap, relation, self._lanes_left_of(ego_role, role),
             ))
-        # Vehicles are discs of their radius around the ego's disc; an obstacle's circle is where the ego's
+        # Vehicles: the shared footprint check (boxes as observed); an obstacle's circle is where the ego's
         # centre must not go (the paper's Scenario 1: J2's circle is the obstacle).
-        touching = [(t, 0.5 * t.length_m + EGO_RADIUS_M) for t in traffic] + [(o, 0.5 * o.length_m) for o in obstacles]
+        touching = [t for t in traffic if boxes_overlap(ego, t)]
+        touching += [o for o in obstacles if math.hypot(o.x_m - x, o.y_m - y) < 0.5 * o.length_m]
         collisions = [
             CollisionObservation("ego", other.id, "ego", other.type_id, v, getattr(other, "speed_mps", 0.0), "overlap",
                                  ego_role, x - road.start_x_m, True, "geometry")
-            for other, reach in touching
-            if math.hypot(other.x_m - x, other.y_m - y) < reach
+            for other in touching
         ]
         emergency.sort(key=lambda e: e.distance_m)
         return Observation(round(self.time_s, 9), ego, tuple(traffic), tuple(emergency), tuple(obstacles),
