@@ -8,7 +8,11 @@ Cases (each in a fresh process: libsumo runs one simulation per process):
 - ``road_20``: the ego on the straight 800 m 3-lane road with 20 SUMO cars placed around it (the brief's
   case: 20 vehicles, no sublane model), 500 timed steps;
 - ``road_20_sublane``: the same with SUMO's sublane model (0.4 m) for comparison;
-- ``curvy_traffic``: the curved road with the route file's background traffic after 90 s of warm-up.
+- ``curvy_traffic``: the curved road with the route file's background traffic after 90 s of warm-up;
+- ``curvy_traffic_sublane``: the same with the sublane model (0.4 m, what rescue lanes switch on).
+
+``sumo_step_*`` is SUMO's own step (``simulation.step`` through the bridge) inside each co-simulation step,
+timed separately: the co-simulation step minus it is our share (controller, observation, surroundings).
 
 A step is timed as a whole (``RunLoop.step``'s ``step_ms``: surroundings, controller, bicycle model,
 moveToXY, SUMO step, observation); ``solve_ms`` is the controller's part. The specification is J1 on the
@@ -25,7 +29,7 @@ import subprocess
 import sys
 import time
 
-CASES = ("road_20", "road_20_sublane", "curvy_traffic")
+CASES = ("road_20", "road_20_sublane", "curvy_traffic", "curvy_traffic_sublane")
 
 
 def run_case(case: str, steps: int, seed: int) -> dict:
@@ -48,12 +52,22 @@ def run_case(case: str, steps: int, seed: int) -> dict:
             sensing_range_m=300.0,  # every one of the 20 cars goes through the observation each step
         )
         steps = min(steps, 550 - warmup_steps)
-    elif case == "curvy_traffic":
-        config = curvy_traffic_config()
+    elif case.startswith("curvy_traffic"):
+        config = curvy_traffic_config(sublane=case.endswith("sublane"))
     else:
         raise ValueError(f"unknown case {case!r}; known: {CASES}")
     started = time.perf_counter()
     world = SumoWorld(config, seed=seed)
+    bridge = world.bridge
+    sumo_step_s: list[float] = []
+    sumo_step = bridge.step
+
+    def timed_step() -> None:  # SUMO's own step, separately (an instance attribute shadows the method)
+        t0 = time.perf_counter()
+        sumo_step()
+        sumo_step_s.append(time.perf_counter() - t0)
+
+    bridge.step = timed_step
     role, path = world.lane(config.ego.lane)
     specification = Specification.of(PathTracking(path=path, lane=role, v_ref_mps=15.0))
     with RunLoop(world, specification, LoopSettings(duration_s=float("inf"), stop_at_goal=False), seed=seed) as loop:
@@ -63,6 +77,7 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         records = loop.recorder.trajectory_rows[warmup_steps:]
         ego_collisions = len(loop.recorder.metrics.ego_collision_pairs)
         total_vehicles = world.bridge.vehicle_count() - 1
+    sumo_ms = 1e3 * np.array(sumo_step_s[-len(records):])
     step_ms = np.array([r["step_ms"] for r in records])
     solve_ms = np.array([r["solve_ms"] for r in records])
     in_range = np.array([r["vehicles_in_range"] for r in records])
@@ -70,7 +85,7 @@ def run_case(case: str, steps: int, seed: int) -> dict:
     return {
         "case": case,
         "steps": len(records),
-        "sublane": config.sublane,
+        "sublane": config.sublane or world.rescue_lanes,
         "vehicles_in_range_median": float(np.median(in_range)),
         "vehicles_in_range_min": int(in_range.min()),
         "vehicles_in_sumo_at_end": total_vehicles,
@@ -78,6 +93,8 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         "step_median_ms": round(float(np.median(step_ms)), 4),
         "step_p90_ms": round(float(np.percentile(step_ms, 90)), 4),
         "step_p99_ms": round(float(np.percentile(step_ms, 99)), 4),
+        "sumo_step_median_ms": round(float(np.median(sumo_ms)), 4),
+        "sumo_step_p90_ms": round(float(np.percentile(sumo_ms, 90)), 4),
         "controller_median_ms": round(float(np.median(solve_ms)), 4),
         "rest_median_ms": round(float(np.median(step_ms - solve_ms)), 4),
         "setup_s": round(setup_s, 3),

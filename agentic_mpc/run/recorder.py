@@ -56,6 +56,11 @@ class RunRecorder:
         self.trajectory_rows: list[dict[str, Any]] = []
         self.traffic_rows: list[dict[str, Any]] = []
         self.specification_events: list[dict[str, Any]] = []
+        self.setup_events: list[dict[str, Any]] = []
+        start = getattr(world, "ego_start", None)  # SUMO: where the ego really got in (a free gap if it had to)
+        if start:
+            self.setup_events.append({"event": "ego_inserted", "sim_time_s": start.get("inserted_at_s"), "tau": None,
+                                      "source": "world", "result": json.dumps(start, default=str)})
         self.received_calls: list[dict[str, Any]] = []
         self.plan_rows: list[tuple[float, int, float, float]] = []
         self.metrics = MetricsRecorder()
@@ -151,7 +156,8 @@ class RunRecorder:
         if self.plan_rows:
             pd.DataFrame(self.plan_rows, columns=["time_s", "k", "x_m", "y_m"]).to_csv(out_dir / "plan.csv", index=False)
         collisions = [collision_event(e) for e in self.metrics.collisions.episodes]
-        events = events_table(sorted(transcript + list(self.received_calls) + self.specification_events + collisions,
+        events = events_table(sorted(self.setup_events + transcript + list(self.received_calls)
+                                     + self.specification_events + collisions,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
         events.to_csv(out_dir / "events.csv", index=False)
         summary: dict[str, Any] = {
@@ -164,6 +170,8 @@ class RunRecorder:
                       agent_tool_calls=int((events["event"] == "tool_call").sum()) if len(events) else 0)
         )
         summary.update(comfort_summary(trajectory, [track.road_s_m for track in self.metrics.obstacles]))
+        rescue = getattr(self.world, "rescue_lanes", None)  # SUMO worlds: whether SUMO's drivers formed them
+        summary["rescue_lanes"] = "" if rescue is None else bool(rescue)
         summary["wall_s"] = round(wall_s, 3)
         pd.DataFrame([summary]).to_csv(out_dir / "summary.csv", index=False)
         pd.DataFrame(

@@ -2,8 +2,8 @@
 the run's files.
 
 :func:`run_scenario` writes ``trajectory.csv``, ``events.csv``, ``traffic.csv``, ``summary.csv``,
-``obstacles.csv``, ``transcript.jsonl``, ``scenario.json``, ``trajectory.png`` and ``replay.html`` (the animated
-replay, :mod:`agentic_mpc.replay`) to the output directory;
+``obstacles.csv``, ``obstacle_passes.csv``, ``transcript.jsonl``, ``scenario.json``, ``trajectory.png`` and
+``replay.html`` (the animated replay, :mod:`agentic_mpc.replay`) to the output directory;
 what was recorded is written even when the run fails, and the error is raised afterwards.
 """
 
@@ -39,10 +39,15 @@ def build_backend(settings: AgentSettings, lefthand: bool) -> Any:
 
     if settings.backend == "rules":
         return make_backend("rules", yield_lane="left" if lefthand else "right")
+    options: dict[str, Any] = {"temperature": settings.temperature, "max_tokens": settings.max_tokens,
+                               "extra_body": settings.extra_body}
+    if settings.tool_mode is not None:
+        options["tool_mode"] = settings.tool_mode
     if settings.backend == "llamacpp":  # a GGUF file in process; `model` is its path
-        return make_backend("llamacpp", model_path=settings.model)
+        return make_backend("llamacpp", model_path=settings.model, threads=settings.threads,
+                            ctx_size=settings.ctx_size, **options)
     return make_backend("openai", base_url=settings.base_url, model=settings.model, api_key_env=settings.api_key_env,
-                        timeout_s=settings.timeout_s)
+                        timeout_s=settings.timeout_s, **options)
 
 
 def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True, pace: float | None = None,
@@ -54,13 +59,16 @@ def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True,
     from agentic_mpc.scenario.specification import initial_specification, steering_template
 
     settings = scenario.agent
+    if pace is None and embedded_agent and settings.mode == "realtime":
+        pace = 1.0  # a realtime agent's latency must cost the car sim time, as it would on the road
     if not embedded_agent:
         agent = None
     elif agent is None:
-        from agentic_mpc.agent.agent import AgentConfig
+        from agentic_mpc.agent.config import AgentConfig
 
         config = AgentConfig(timing=settings.mode, latency_s=settings.latency_s, transcript_path=transcript_path,
-                             backend_timeout_s=settings.timeout_s)
+                             backend_timeout_s=settings.timeout_s + 5.0, system_prompt_extra=settings.extra_prompt,
+                             max_rounds_per_step=settings.max_rounds_per_step)
         agent = AgentSetup(build_backend(settings, world.lanes().lefthand), config, settings.observation_messages)
     return RunLoop(
         world, initial_specification(scenario.specification, world),
@@ -114,6 +122,8 @@ class ScenarioRun:
             self.loop = build_loop(self.scenario, world, embedded_agent=self.embedded_agent, pace=self.pace,
                                    transcript_path=transcript_path, server_options=self.server_options)
             self.loop.stop = self.stop
+            if self.loop.settings.pace:  # paced: the first step must not stall the clock (nor MCP readers)
+                self.loop.warm_up()
             self.ready.set()
             self.loop.run()
         except BaseException as error:  # keep what was recorded, then re-raise

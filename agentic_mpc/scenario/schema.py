@@ -70,7 +70,21 @@ class AgentSettings(_Strict):
     base_url: str = Field("http://localhost:11434/v1", description="openai backend: the chat-completions endpoint")
     model: str = Field("granite4:micro", description="openai backend: the model name; llamacpp: the GGUF file's path")
     api_key_env: str | None = Field(None, description="openai backend: environment variable holding the API key")
-    timeout_s: float = Field(60.0, gt=0)
+    timeout_s: float = Field(60.0, gt=0, description="openai, llamacpp: seconds per answer; the agent step's "
+                             "own timeout is this plus 5 s, so the backend's runs out first")
+    tool_mode: Literal["native", "json_schema"] | None = Field(
+        None, description="openai, llamacpp: native tool calls, or output constrained by a JSON schema of the "
+                          "tools (default: native for openai, json_schema for llamacpp)")
+    temperature: float = Field(0.0, ge=0, le=2, description="openai, llamacpp: sampling temperature")
+    max_tokens: int = Field(512, ge=1, le=32768, description="openai, llamacpp: tokens per answer")
+    extra_body: dict[str, Any] = Field(default_factory=dict,
+                                       description="openai: merged into every request body (e.g. top_p)")
+    extra_prompt: str = Field("", max_length=8000, description="appended to the system prompt (any backend "
+                              "but rules)")
+    threads: int = Field(1, ge=1, le=256, description="llamacpp: CPU threads")
+    ctx_size: int = Field(8192, ge=256, le=1_048_576, description="llamacpp: context size in tokens")
+    max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step (a model "
+                                     "that keeps calling tools is stopped there)")
     mode: Literal["lockstep", "realtime"] = Field(
         "lockstep", description="lockstep: reproducible, tool calls take effect latency_s after the message"
     )
@@ -196,7 +210,10 @@ def load_scenario(path: Path | str) -> ScenarioFile:
 def _validate(document: YamlDocument, data: dict[str, Any], prefix: YamlPath, problems: list[str]) -> Scenario | None:
     data = _resolve_files(document, data, prefix, problems)
     try:
-        return Scenario.model_validate(data)
+        scenario = Scenario.model_validate(data)
+        if scenario.simulation is not None:
+            problems.extend(_simulation_file_problems(document, scenario.simulation, prefix))
+        return scenario
     except ValidationError as error:
         # pydantic skips model checks when a field fails: run the whole-file checks here so every problem shows
         problems.extend(_messages_past_the_end(document, data, prefix))
@@ -209,6 +226,18 @@ def _validate(document: YamlDocument, data: dict[str, Any], prefix: YamlPath, pr
             message = item["msg"].removeprefix("Value error, ")
             problems.append(f"{document.locate(path)}: {message}")
         return None
+
+
+def _simulation_file_problems(document: YamlDocument, simulation: SumoConfig, prefix: YamlPath) -> list[str]:
+    """What the simulation's files contradict (vehicle types, lane widths), checked before SUMO starts."""
+    from agentic_mpc.sumo.route_files import check_files  # XML only: no simulator is loaded
+
+    found = []
+    for inner, message in check_files(simulation):
+        path: YamlPath = ("simulation", *inner)
+        where = (*prefix, *path) if prefix and (*prefix, *path) in document.lines else path
+        found.append(f"{document.locate(where)}: {message}")
+    return found
 
 
 def _messages_past_the_end(document: YamlDocument, data: dict[str, Any], prefix: YamlPath) -> list[str]:

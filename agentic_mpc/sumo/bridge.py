@@ -5,7 +5,10 @@ Conventions are converted here, at the boundary:
 - SUMO places a vehicle by its FRONT-BUMPER centre, our model by its centre: they differ by half the
   vehicle length along the heading;
 - SUMO's angle is navigational (degrees, 0 = north, clockwise), ours is mathematical (radians, 0 = +x,
-  counter-clockwise): ``angle_deg = 90 - degrees(phi)``.
+  counter-clockwise): ``angle_deg = 90 - degrees(phi)``;
+- our lateral offsets are + to the left; SUMO's are + to the RIGHT in left-hand nets (its cars, measured), but
+  ``moveToXY`` stores a point left of the lane as + there too: in left-hand nets reads are negated and
+  ``moveToXY`` gets the point mirrored across its lane's centre line (the shift is added back on reading).
 
 libsumo runs one simulation per process, and a second ``libsumo.start`` silently replaces the first: this
 module refuses to start a second one (:class:`SumoAlreadyRunningError`). Run several simulations in
@@ -24,6 +27,8 @@ from pathlib import Path
 import libsumo
 from libsumo import constants as tc
 
+from agentic_mpc.sumo.options import declares_lefthand, sumo_command
+from agentic_mpc.sumo.options import error_message as _message
 from agentic_mpc.sumo.records import (
     CollisionRecord,
     SumoError,
@@ -90,6 +95,8 @@ class SumoBridge:
         log_file: str | Path | None = None,
         quiet: bool = True,
         keep_route: int = 3,
+        bluelight_reaction_dist_m: float | None = None,
+        lefthand: bool | None = None,
         extra_options: Sequence[str] = (),
     ) -> None:
         global _active
@@ -104,6 +111,7 @@ class SumoBridge:
         self._pending_speeds: dict[str, tuple[float, float]] = {}
         self._waiting_external: dict[str, tuple[int, float]] = {}
         self._speed_overrides: dict[str, float] = {}
+        self._mirror_shift: dict[str, tuple[float, float]] = {}  # see move_external
         self.keep_route = keep_route
         self.collisions: tuple[CollisionRecord, ...] = ()
         """Collisions SUMO reported in the last step."""
@@ -114,33 +122,13 @@ class SumoBridge:
         for route_file in self.route_files:
             if not route_file.is_file():
                 raise SumoError(f"route file not found: {route_file}")
-        command = [
-            "sumo",
-            "-n", str(self.net_file),
-            "--step-length", repr(float(step_length_s)),
-            "--seed", str(int(seed)),
-            "--no-step-log", "true",
-            "--duration-log.disable", "true",
-            # A standing ego would be teleported away after 300 s by default.
-            "--time-to-teleport", "-1",
-            # The default (teleport) silently drops collisions of a moveToXY vehicle; warn + real overlap.
-            "--collision.action", "warn",
-            "--collision.mingap-factor", "0",
-            "--collision.check-junctions", "true",
-            # Try every pending vehicle each step; by default one that cannot go in blocks the later ones of
-            # its edge, so a scenario's vehicles trickled in over seconds (measured).
-            "--eager-insert", "true",
-        ]
-        if self.route_files:
-            command += ["-r", ",".join(str(r) for r in self.route_files)]
-        if lateral_resolution_m is not None:
-            command += ["--lateral-resolution", repr(float(lateral_resolution_m))]
-        if log_file is not None:
-            command += ["--log", str(log_file)]
-        if quiet:
-            command += ["--no-warnings", "true"]
-        command += list(extra_options)
-        self.command = tuple(command)
+        self.lefthand = declares_lefthand(self.net_file) if lefthand is None else lefthand
+        self.command = sumo_command(
+            self.net_file, self.route_files, seed=seed, step_length_s=step_length_s,
+            lateral_resolution_m=lateral_resolution_m, bluelight_reaction_dist_m=bluelight_reaction_dist_m,
+            log_file=log_file, quiet=quiet, extra_options=extra_options,
+        )
+        command = list(self.command)
 
         with _active_lock:
             if _active is not None or libsumo.simulation.isLoaded():
@@ -341,14 +329,18 @@ class SumoBridge:
         self._waiting_external[vehicle_id] = (lane_index, pos_m)
         return self.wait_until_inserted(vehicle_id, max_wait_steps) if wait else 0
 
-    def wait_until_inserted(self, vehicle_id: str, max_wait_steps: int = 250) -> int:
-        """Step until SUMO has inserted the external vehicle ``vehicle_id``; returns the steps taken."""
+    def wait_until_inserted(self, vehicle_id: str, max_wait_steps: int = 250, *, withdraw: bool = False) -> int | None:
+        """Step until SUMO has inserted the external vehicle ``vehicle_id``; returns the steps taken. Not in
+        time: with ``withdraw`` it is removed and None returned (SUMO runs on), else SUMO closes, SumoError."""
         lane_index, pos_m = self._waiting_external.pop(vehicle_id)
         for steps in range(1, max_wait_steps + 1):
             self.step()
             if vehicle_id in self.departed or vehicle_id in libsumo.vehicle.getIDList():
                 self._external[vehicle_id] = self.info(vehicle_id).length_m
                 return steps
+        if withdraw:
+            self.remove_vehicle(vehicle_id)
+            return None
         time_s = self.time_s
         self.close()
         raise SumoError(
@@ -379,12 +371,43 @@ class SumoBridge:
             raise SumoError(f"{vehicle_id!r} was not added with add_external_vehicle")
         x_front, y_front, angle = centre_to_front(x_m, y_m, phi_rad, length)
         try:
-            libsumo.vehicle.moveToXY(vehicle_id, "", -1, x_front, y_front, angle, keepRoute=self.keep_route)
+            x_sumo, y_sumo = self._mirrored(x_front, y_front) if self.lefthand else (x_front, y_front)
+            libsumo.vehicle.moveToXY(vehicle_id, "", -1, x_sumo, y_sumo, angle, keepRoute=self.keep_route)
+            self._mirror_shift[vehicle_id] = (x_front - x_sumo, y_front - y_sumo)
         except _LIBSUMO_ERRORS as error:
             raise self._fail(f"moving {vehicle_id!r} to ({x_m:.2f}, {y_m:.2f})", error) from error
         if speed_mps is not None:
             accel = tc.INVALID_DOUBLE_VALUE if accel_mps2 is None else accel_mps2
             self._pending_speeds[vehicle_id] = (speed_mps, accel)
+
+    def _mirrored(self, x_m: float, y_m: float) -> tuple[float, float]:
+        """The point mirrored across the centre line of its lane (itself off every lane); see the module doc."""
+        try:
+            edge_id, pos, lane_index = libsumo.simulation.convertRoad(x_m, y_m)
+        except _LIBSUMO_ERRORS:  # far from every lane: nothing to mirror
+            return x_m, y_m
+        x_centre, y_centre = libsumo.simulation.convert2D(edge_id, pos, lane_index)
+        if math.hypot(x_m - x_centre, y_m - y_centre) > 0.5 * libsumo.lane.getWidth(f"{edge_id}_{lane_index}"):
+            return x_m, y_m  # off the lane: SUMO leaves it off every lane either way
+        return 2.0 * x_centre - x_m, 2.0 * y_centre - y_m
+
+    def set_type_parameters(self, type_id: str, params: dict[str, float | str]) -> None:
+        """Set generic parameters of a vType (e.g. the bluelight device's reaction probabilities)."""
+        try:
+            for key, value in params.items():
+                libsumo.vehicletype.setParameter(type_id, key, str(value))
+        except _LIBSUMO_ERRORS as error:
+            raise SumoError(f"cannot set parameters {params} of vType {type_id!r}: {_message(error)}") from error
+
+    def lane_vehicles(self, lane_id: str) -> list[tuple[float, float, float, float]]:
+        """(front-bumper lane position, length, minGap, speed) of each vehicle on a lane, by position."""
+        self._require_running()
+        v = libsumo.vehicle
+        try:
+            return sorted((v.getLanePosition(i), v.getLength(i), v.getMinGap(i), v.getSpeed(i))
+                          for i in libsumo.lane.getLastStepVehicleIDs(lane_id))
+        except _LIBSUMO_ERRORS as error:
+            raise SumoError(f"cannot read the vehicles on lane {lane_id!r}: {_message(error)}") from error
 
     # --- reading -------------------------------------------------------------------------------------
     def info(self, vehicle_id: str) -> VehicleInfo:
@@ -404,14 +427,18 @@ class SumoBridge:
 
     def _state(self, vehicle_id: str, values: dict) -> VehicleState:
         x_front, y_front = values[tc.VAR_POSITION]
+        shift = self._mirror_shift.get(vehicle_id)
+        if shift is not None:
+            x_front, y_front = x_front + shift[0], y_front + shift[1]
         x, y, phi = front_to_centre(x_front, y_front, values[tc.VAR_ANGLE], self.info(vehicle_id).length_m)
         lane_id = values[tc.VAR_LANE_ID]
         speed = self._speed_overrides.get(vehicle_id, values[tc.VAR_SPEED])
         if not lane_id:  # off every lane: SUMO reports INVALID_DOUBLE/INT for the lane quantities
             return VehicleState(vehicle_id, x, y, phi, speed, "", -1, math.nan, math.nan)
+        lateral = values[tc.VAR_LANEPOSITION_LAT]
         return VehicleState(
             vehicle_id, x, y, phi, speed, lane_id, values[tc.VAR_LANE_INDEX],
-            values[tc.VAR_LANEPOSITION], values[tc.VAR_LANEPOSITION_LAT],
+            values[tc.VAR_LANEPOSITION], -lateral if self.lefthand else lateral,
         )
 
     def vehicle_state(self, vehicle_id: str) -> VehicleState:
@@ -511,9 +538,3 @@ class SumoBridge:
         except _LIBSUMO_ERRORS as error:
             raise self._fail(f"time loss of {vehicle_id!r}", error) from error
 
-
-def _message(error: BaseException) -> str:
-    """The text of a libsumo exception (SWIG wraps it in args)."""
-    if error.args and isinstance(error.args[0], str):
-        return error.args[0].strip()
-    return repr(error)

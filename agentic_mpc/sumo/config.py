@@ -86,6 +86,50 @@ class StaticObstacle(_Placed):
     in_j2: bool = Field(True, description="add it to the initial specification's obstacle avoidance (J2)")
 
 
+BLUELIGHT_PARAM_KEYS = (
+    "device.bluelight.reaction-prob-far",
+    "device.bluelight.reaction-prob-near",
+    "device.bluelight.near-dist",
+    "device.bluelight.reactiondist",
+    "device.bluelight.mingapfactor",
+)
+"""The vType/vehicle parameters SUMO 1.28's bluelight device reads (MSDevice_Bluelight.cpp): the reaction
+probabilities (per second) and near-dist every step, reactiondist and mingapfactor when the device is built."""
+
+
+class RescueLanes(_Frozen):
+    """SUMO's drivers form a rescue lane for emergency vehicles (the bluelight device under the sublane model).
+
+    Measured on the curved 3-lane road (docs/traffic.md): 3 cars abreast ahead of an ambulance cost it 38 s
+    without this, about 1 s with it. Needs the sublane model (switched on at ``lateral_resolution_m`` of the
+    simulation; 0.8 m is too coarse for a 2.2 m ambulance to fit) and lanes wide enough (3.5 m and up)."""
+
+    enabled: bool | None = Field(
+        None, description="None: on when the scenario has emergency vehicles (route files or spawns), else off"
+    )
+    reaction_dist_m: float = Field(
+        100.0, gt=0, description="--device.bluelight.reactiondist (SUMO's 25 m is too short at 25 m/s)"
+    )
+    emergency_params: dict[str, float] = Field(
+        default_factory=lambda: {"device.bluelight.reaction-prob-far": 1.0, "device.bluelight.reaction-prob-near": 1.0},
+        description="parameters set on every emergency vType (SUMO's defaults: 0.189 and 0.577 per second)",
+    )
+
+    @field_validator("emergency_params")
+    @classmethod
+    def _known_keys(cls, params: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(params) - set(BLUELIGHT_PARAM_KEYS))
+        if unknown:
+            raise ValueError(f"unknown bluelight parameters {unknown}; SUMO knows {list(BLUELIGHT_PARAM_KEYS)}")
+        negative = sorted(k for k, v in params.items() if v < 0)
+        if negative:
+            raise ValueError(f"bluelight parameters must not be negative: {negative}")
+        if params.get("device.bluelight.mingapfactor", 1.0) != 1.0:
+            # SUMO applies it to the whole vType's collision minGap factor, for good (MSDevice_Bluelight.cpp)
+            raise ValueError("device.bluelight.mingapfactor must stay 1: other values change the vType permanently")
+        return params
+
+
 class SumoConfig(_Frozen):
     """The SUMO world of a run: network, traffic, the ego's start, obstacles; validated before SUMO starts.
 
@@ -96,14 +140,22 @@ class SumoConfig(_Frozen):
     road: str | tuple[str, ...] = Field(
         ..., description="the ego's road: a start edge (followed while it has one successor) or the edge list"
     )
-    sublane: bool = Field(False, description="SUMO's sublane model (lateral behaviour, about 10x per step)")
-    lateral_resolution_m: float = Field(0.4, gt=0)
+    sublane: bool = Field(
+        False, description="SUMO's sublane model (lateral behaviour, about 10x per step); rescue lanes switch it on"
+    )
+    lateral_resolution_m: float = Field(0.4, gt=0, description="sublane width; at most the narrowest lane's width")
+    rescue_lanes: RescueLanes = RescueLanes()
     ego: EgoStart = EgoStart()
     ego_id: str = "ego"
     ego_type_id: str = "ego"
     vehicles: tuple[VehicleSpawn, ...] = ()
     obstacles: tuple[StaticObstacle, ...] = ()
     warmup_s: float = Field(0.0, ge=0, description="SUMO runs alone this long before the ego enters")
+    ego_insert_wait_s: float = Field(
+        2.0, gt=0, le=60,
+        description="how long SUMO may take to insert the ego at its spot before the free gaps of its lane nearest"
+        " to it are tried (each for 0.5 s); where it entered is the world's ego_start",
+    )
     goal_s_m: float | None = Field(
         None, description="along-road position of the ego's goal (default: 40 m before the road's end)"
     )

@@ -12,7 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from agentic_mpc.sumo.config import EgoStart, StaticObstacle, SumoConfig, SurroundingsConfig, VehicleSpawn
+from agentic_mpc.sumo.config import (
+    EgoStart,
+    RescueLanes,
+    StaticObstacle,
+    SumoConfig,
+    SurroundingsConfig,
+    VehicleSpawn,
+)
 
 
 def nets_dir() -> Path:
@@ -56,6 +63,9 @@ def scenario2_config(
     situation where the ego's own behaviour decides whether the ambulance gets through: holding the lane
     keeps it stuck, moving to a side lane and stopping opens the centre lane. Without the roadblock the
     ambulance simply overtakes on a free lane. ``lefthand=True`` is the paper's (Japanese) road.
+
+    With the roadblock, rescue lanes are off: SUMO would move the pinned cars aside (the bluelight device
+    overrides their lane-change mode), and the yielding ego collided with the left one (measured).
     """
     net, routes = net_files("emergency", lefthand)
     ego_pos = 150.0
@@ -75,6 +85,7 @@ def scenario2_config(
         road="emergency",
         ego=EgoStart(lane="center", pos_m=ego_pos, speed_mps=15.0),
         vehicles=tuple(vehicles),
+        rescue_lanes=RescueLanes(enabled=False) if roadblock else RescueLanes(),
     )
     return config.replace(**update)
 

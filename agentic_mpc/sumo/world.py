@@ -29,13 +29,18 @@ from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import Circle, Surroundings
 from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
+from agentic_mpc.sumo.insertion import free_spots
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
+from agentic_mpc.sumo.route_files import RouteFileError, RouteTypes, read_route_types, rescue_lanes_active
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder, obstacle_circles
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
 from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import Observation
+
+_INSERT_ATTEMPTS = 20
+"""Free gaps tried (nearest first) when the ego's requested spot stays occupied."""
 
 
 @dataclass
@@ -45,6 +50,29 @@ class _Resolved:
     edge_id: str
     lane_index: int
     pos_m: float
+
+
+def open_bridge(
+    config: SumoConfig, seed: int, step_length_s: float, lefthand: bool | None = None, types: RouteTypes | None = None
+) -> SumoBridge:
+    """SUMO started for ``config``: its options, and with rescue lanes (resolved from the config and the route
+    files) the sublane model, the bluelight reaction distance and the emergency vTypes' parameters."""
+    types = types or read_route_types(config.route_files)
+    rescue = rescue_lanes_active(config, types)
+    bridge = SumoBridge(
+        config.net_file, config.route_files, seed=seed, step_length_s=step_length_s,
+        lateral_resolution_m=config.lateral_resolution_m if config.sublane or rescue else None,
+        bluelight_reaction_dist_m=config.rescue_lanes.reaction_dist_m if rescue else None,
+        log_file=config.sumo_log_file, quiet=config.quiet, keep_route=config.keep_route, lefthand=lefthand,
+    )
+    try:
+        if rescue:  # before any vehicle exists: per-vehicle types copy their vType's parameters
+            for type_id in types.emergency_types():
+                bridge.set_type_parameters(type_id, config.rescue_lanes.emergency_params)
+    except BaseException:
+        bridge.close()
+        raise
+    return bridge
 
 
 class SumoWorld:
@@ -65,8 +93,16 @@ class SumoWorld:
             self.road: Road = self.network.road(config.road)
         except NetworkError as error:
             raise WorldError(str(error)) from error
+        try:
+            self._route_types = read_route_types(config.route_files)
+        except RouteFileError as error:
+            raise WorldError(str(error)) from error
+        self.rescue_lanes = rescue_lanes_active(config, self._route_types)
+        """Whether SUMO's drivers form rescue lanes in this run (``config.rescue_lanes`` resolved)."""
         self._ego_start = self._resolve(config.ego.edge_id, config.ego.lane, config.ego.pos_m, "ego start")
         self._state = self._initial_state(self._ego_start)
+        self.ego_start: dict[str, Any] = {}
+        """Where and when SUMO inserted the ego: requested vs actual front-bumper lane position (set-up fact)."""
         for obstacle in config.obstacles:
             self._resolve(obstacle.edge_id, obstacle.lane, obstacle.pos_m, f"obstacle {obstacle.id!r}")
         for spawn in config.vehicles:
@@ -126,6 +162,9 @@ class SumoWorld:
 
     def _type_length(self, type_id: str) -> float:
         """A vType's length from the route files (before SUMO runs; SUMO's default is 5 m)."""
+        return self._type_attribute(type_id, "length", 5.0)
+
+    def _type_attribute(self, type_id: str, name: str, default: float) -> float:
         for route_file in self.config.route_files:
             try:
                 root = ElementTree.parse(route_file).getroot()
@@ -133,7 +172,7 @@ class SumoWorld:
                 raise WorldError(f"malformed route file {route_file}: {error}") from error
             for element in root.iter("vType"):
                 if element.get("id") == type_id:
-                    return float(element.get("length", 5.0))
+                    return float(element.get(name, default))
         raise WorldError(
             f"vType {type_id!r} is not defined in the route files {[str(r) for r in self.config.route_files]}"
         )
@@ -149,11 +188,7 @@ class SumoWorld:
     def _start_sumo(self) -> None:
         c = self.config
         try:
-            self._bridge = SumoBridge(
-                c.net_file, c.route_files, seed=self.seed, step_length_s=self.dt_s,
-                lateral_resolution_m=c.lateral_resolution_m if c.sublane else None,
-                log_file=c.sumo_log_file, quiet=c.quiet, keep_route=c.keep_route,
-            )
+            self._bridge = open_bridge(c, self.seed, self.dt_s, self.network.lefthand, self._route_types)
         except SumoError as error:
             raise WorldError(str(error)) from error
         try:
@@ -177,7 +212,7 @@ class SumoWorld:
             )
             if c.warmup_s == 0.0:
                 self._add_spawns()
-            self._bridge.wait_until_inserted(c.ego_id)
+            self._insert_ego(start)
             self._bridge.subscribe_around(c.ego_id, c.sensing_range_m)
             # Put the ego exactly at our initial state (lateral offset included) before the first control step.
             self._bridge.move_external(c.ego_id, *self._state[:3], speed_mps=float(self._state[3]))
@@ -196,6 +231,51 @@ class SumoWorld:
         except BaseException:
             self.close()
             raise
+
+    def _insert_ego(self, start: _Resolved) -> None:
+        """Wait for SUMO to insert the ego at its requested spot; if that stays occupied (dense traffic after a
+        warm-up), try the free gaps of its lane nearest to it. Records the spot in ``ego_start``."""
+        c, bridge = self.config, self._bridge
+        requested_s = bridge.time_s
+        steps = bridge.wait_until_inserted(c.ego_id, max(1, round(c.ego_insert_wait_s / self.dt_s)), withdraw=True)
+        pos = start.pos_m
+        if steps is None:
+            lane_id = f"{start.edge_id}_{start.lane_index}"
+            length = self.network.edge(start.edge_id).getLane(start.lane_index).getLength()
+            ego_length, ego_min_gap = self._type_length(c.ego_type_id), self._type_attribute(c.ego_type_id, "minGap", 2.5)
+            tried: list[float] = []
+            for _ in range(_INSERT_ATTEMPTS):  # the gaps anew each time: traffic moves while SUMO tries
+                spots = free_spots(bridge.lane_vehicles(lane_id), length, start.pos_m, ego_length, ego_min_gap,
+                                   c.ego.speed_mps)
+                pos = next((p for p in spots if all(abs(p - t) > 2.0 for t in tried) and self._fits(start, p)), None)
+                if pos is None:
+                    break
+                tried.append(pos)
+                bridge.add_external_vehicle(
+                    c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
+                    pos_m=pos, speed_mps=c.ego.speed_mps, wait=False,
+                )
+                steps = bridge.wait_until_inserted(c.ego_id, round(0.5 / self.dt_s), withdraw=True)
+                if steps is not None:
+                    break
+            if steps is None:
+                raise SumoError(
+                    f"SUMO did not insert {c.ego_id!r} on lane {lane_id} at {start.pos_m} m nor at the free gaps"
+                    f" tried at {[round(t, 1) for t in tried]} m (t={bridge.time_s:.2f} s)"
+                )
+            self._state = self._initial_state(_Resolved(start.edge_id, start.lane_index, pos))
+        self.ego_start = {
+            "edge_id": start.edge_id, "lane_index": start.lane_index, "requested_pos_m": start.pos_m,
+            "pos_m": pos, "requested_at_s": requested_s, "inserted_at_s": bridge.time_s,
+        }
+
+    def _fits(self, start: _Resolved, pos_m: float) -> bool:
+        """Whether the ego starting at ``pos_m`` on the start lane (with its lateral offset) is on the road."""
+        try:
+            self._initial_state(_Resolved(start.edge_id, start.lane_index, pos_m))
+        except WorldError:
+            return False
+        return True
 
     def _add_spawns(self) -> None:
         for spawn in self.config.vehicles:
