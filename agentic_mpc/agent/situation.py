@@ -54,8 +54,8 @@ def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | N
             kind = vehicle.get("type_id") or vehicle.get("vclass") or "emergency vehicle"
             lane = vehicle.get("lane_role") or "another"
             gap = f"{distance:.0f} m " if distance is not None else ""
-            lines.append(f"- emergency vehicle {kind!s} '{vehicle.get('id')}' {gap}{vehicle.get('relation', 'near')} "
-                         f"us, in the {lane} lane")
+            where = {"ahead": "ahead of us", "behind": "behind us"}.get(vehicle.get("relation"), "beside us")
+            lines.append(f"- emergency vehicle {kind!s} '{vehicle.get('id')}' {gap}{where}, in the {lane} lane")
     if specification is not None and specification.get("summary"):
         lines.append(f"- attached: {specification['summary']}")
     if not lines:
