@@ -74,12 +74,28 @@ class MovingDisc:
 
 
 @dataclass(frozen=True, slots=True)
+class Leader:
+    """A vehicle ahead in the ego's path, predicted over the horizon, for J0's time gap.
+
+    ``contact_points`` (H, 2): where the ego's CENTRE would be, on its path, with its front bumper touching
+    the leader's rear bumper at stage k = 1..H. ``tangents`` (H, 2): unit direction of the path between the
+    ego and that point; the predicted gap of a state p is ``tangents[k] . (contact_points[k] - p)``. Measured
+    along the path, so moving sideways in the lane does not open it: only falling back does.
+    """
+
+    contact_points: FloatArray
+    tangents: FloatArray
+
+
+@dataclass(frozen=True, slots=True)
 class Surroundings:
     """What the world tells the controller at one step, independent of any simulator."""
 
     moving_discs: tuple[MovingDisc, ...] = ()
     road_left_edge: TrackingReference | None = None
     road_right_edge: TrackingReference | None = None
+    leaders: tuple[Leader, ...] = ()
+    """Vehicles ahead in the ego's path (usually one; a car cutting in adds another)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,6 +135,10 @@ class FusedArrays(NamedTuple):
     edge_ref: FloatArray  # (n_edges, H, 2) points on the road edges
     edge_tan: FloatArray  # (n_edges, H, 2)
     edge_params: FloatArray  # (n_edges, 3): side sign (+1 left edge, -1 right edge), margin, weight
+    leader_points: FloatArray  # (n_leaders, H, 2) contact points (see Leader)
+    leader_tan: FloatArray  # (n_leaders, H, 2)
+    leader_start: FloatArray  # (n_leaders,): the gap now (at least the standstill gap), m
+    time_gap: FloatArray  # (5,): time gap s, standstill gap m, weight per stage, Huber knee m, recovery m per step
 
 
 @dataclass(slots=True)
@@ -133,6 +153,8 @@ class FusedTerms:
     limits: tuple[float, ...] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     discs: list[tuple[FloatArray, float, float]] = field(default_factory=list)
     edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
+    leaders: list[tuple[FloatArray, FloatArray, float]] = field(default_factory=list)
+    time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
 
     def build(self) -> FusedArrays:
         h = self.horizon
@@ -160,6 +182,10 @@ class FusedTerms:
             edge_ref=stack([p for p, _, _, _, _ in self.edges]),
             edge_tan=stack([t for _, t, _, _, _ in self.edges]),
             edge_params=table([(side, margin, w) for _, _, side, margin, w in self.edges], 3),
+            leader_points=stack([p for p, _, _ in self.leaders]),
+            leader_tan=stack([t for _, t, _ in self.leaders]),
+            leader_start=np.array([start for _, _, start in self.leaders], dtype=np.float64),
+            time_gap=np.array(self.time_gap, dtype=np.float64),
         )
 
 

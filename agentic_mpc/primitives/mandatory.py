@@ -5,6 +5,12 @@
 - a speed limit;
 - other road users: discs predicted over the horizon (``Surroundings.moving_discs``);
 - road edges (``Surroundings.road_left_edge`` / ``road_right_edge``);
+- a time gap to the vehicles ahead in the ego's path (``Surroundings.leaders``): the predicted bumper-to-bumper
+  gap, measured along the path, should be at least v(k) * ``time_gap_s`` + ``standstill_gap_m`` at every
+  stage, but never more than the current gap + ``time_gap_recovery_mps`` x t (after a cut-in the ego falls back
+  gradually); the shortfall is penalised squared up to ``time_gap_quadratic_m``, linearly beyond (Huber). Along the
+  path, so leaving the lane does not reduce it: the way to satisfy it after a cut-in is to brake
+  (docs/cost-design.md, "Time gap");
 - smoothness of the planned inputs: a plan whose throttle/brake jumps from stage to stage costs more, so the
   weighted average of smooth plans is smooth (docs/cost-design.md).
 
@@ -22,11 +28,22 @@ from pydantic import Field
 from agentic_mpc.primitives.base import (
     FloatArray,
     FusedTerms,
+    Leader,
     Primitive,
     Rollouts,
     StepContext,
     TrackingReference,
 )
+
+TIME_GAP_WEIGHT = 10.0
+"""Default ``time_gap_weight``, per m^2 per stage (tuned on the dense traffic scenario, seeds 100-119:
+docs/cost-design.md "Time gap")."""
+TIME_GAP_RECOVERY_MPS = 3.0
+"""Default ``time_gap_recovery_mps`` (docs/cost-design.md "Time gap": a faster car merging 1 m ahead braked the
+ego to half its speed without it)."""
+TIME_GAP_QUADRATIC_M = 2.0
+"""Default ``time_gap_quadratic_m``: squared beyond 2 m of shortfall, a cut-in made the cost spread so wide that
+the averaged steering wandered out of the lane (same section)."""
 
 
 class Mandatory(Primitive):
@@ -57,6 +74,31 @@ class Mandatory(Primitive):
     )
     road_edge_weight: float = Field(50.0, ge=0, description="per stage, on (margin - distance inside edge)^2")
     road_edge_margin_m: float = Field(1.0, ge=0, description="how far the ego's centre keeps from a road edge")
+    time_gap_s: float = Field(
+        1.2, ge=0, le=10.0, description="wanted time gap T_h to a vehicle ahead in the ego's path, in seconds"
+    )
+    standstill_gap_m: float = Field(
+        2.0, ge=0, le=50.0, description="wanted bumper-to-bumper gap d_0 at standstill, in metres (added to v*T_h)"
+    )
+    time_gap_weight: float = Field(
+        TIME_GAP_WEIGHT,
+        ge=0,
+        description="per stage, on the gap shortfall max(0, v*T_h + d_0 - gap) in m, squared up to "
+        "time_gap_quadratic_m and linear beyond; the gap is measured along the ego's path to each leader's rear "
+        "bumper (0 switches the term off)",
+    )
+    time_gap_recovery_mps: float = Field(
+        TIME_GAP_RECOVERY_MPS,
+        gt=0,
+        description="the wanted gap is at most the current gap (at least d_0) + this rate x time: after a cut-in "
+        "the ego falls back at this many m/s relative to the car instead of braking at once to the full gap",
+    )
+    time_gap_quadratic_m: float = Field(
+        TIME_GAP_QUADRATIC_M,
+        gt=0,
+        description="shortfalls up to this many metres cost shortfall^2, longer ones grow linearly (Huber): a car "
+        "cutting in far inside the wanted gap makes the ego brake firmly, not slam the brakes",
+    )
 
     def prepare(self, context: StepContext) -> PreparedMandatory:
         s = context.surroundings
@@ -65,7 +107,14 @@ class Mandatory(Primitive):
             edges.append((s.road_left_edge, 1.0))
         if s.road_right_edge is not None:
             edges.append((s.road_right_edge, -1.0))
-        return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input)
+        leaders = s.leaders if self.time_gap_weight > 0.0 else ()
+        # The gap now (from the first stage's contact point), where the wanted gap may start from.
+        starts = tuple(
+            max(self.standstill_gap_m, float(leader.tangents[0] @ (leader.contact_points[0] - context.state[:2])))
+            for leader in leaders
+        )
+        return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
+                                 starts, context.dt_s)
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,6 +124,9 @@ class PreparedMandatory:
     discs: tuple
     edges: tuple[tuple[TrackingReference, float], ...]
     previous_input: tuple[float, float]
+    leaders: tuple[Leader, ...] = ()
+    gap_starts_m: tuple[float, ...] = ()
+    dt_s: float = 0.0
 
     def cost(self, r: Rollouts) -> FloatArray:
         p, h = self.spec, self.horizon
@@ -98,6 +150,16 @@ class PreparedMandatory:
             e_lat = tx * (r.y_m - ey) - ty * (r.x_m - ex)
             violation = np.maximum(0.0, p.road_edge_margin_m + side * e_lat)
             total += p.road_edge_weight / h * np.sum(violation**2, axis=0)
+        recovery = p.time_gap_recovery_mps * self.dt_s * np.arange(1, h + 1)[:, None]
+        for leader, start in zip(self.leaders, self.gap_starts_m, strict=True):
+            cx, cy = leader.contact_points[:, 0:1], leader.contact_points[:, 1:2]
+            tx, ty = leader.tangents[:, 0:1], leader.tangents[:, 1:2]
+            gap = tx * (cx - r.x_m) + ty * (cy - r.y_m)
+            wanted = np.minimum(p.time_gap_s * r.v_mps + p.standstill_gap_m, start + recovery)
+            shortfall = np.maximum(0.0, wanted - gap)
+            q = p.time_gap_quadratic_m
+            huber = np.where(shortfall > q, q * (2.0 * shortfall - q), shortfall**2)
+            total += p.time_gap_weight / h * np.sum(huber, axis=0)
         return total
 
     def add_fused_terms(self, terms: FusedTerms) -> bool:
@@ -117,4 +179,8 @@ class PreparedMandatory:
             terms.discs.append((disc.centres, disc.radius_m, p.vehicle_clearance_weight / h))
         for edge, side in self.edges:
             terms.edges.append((edge.points, edge.tangents, side, p.road_edge_margin_m, p.road_edge_weight / h))
+        terms.time_gap = (p.time_gap_s, p.standstill_gap_m, p.time_gap_weight / h, p.time_gap_quadratic_m,
+                          p.time_gap_recovery_mps * self.dt_s)
+        for leader, start in zip(self.leaders, self.gap_starts_m, strict=True):
+            terms.leaders.append((leader.contact_points, leader.tangents, start))
         return True

@@ -33,7 +33,8 @@ class SurroundingsConfig(BaseModel):
     )
     ignore_followers_in_lane: bool = Field(True, description="leave out vehicles right behind in the ego's lane")
     leader_time_headway_s: float = Field(
-        1.0, ge=0, description="the cover of a vehicle ahead in the ego's lane reaches back this headway"
+        0.0, ge=0, description="the cover of a vehicle ahead in the ego's lane reaches back this headway (off by "
+        "default: J0's time-gap term keeps the distance by braking; this cover made the ego swerve after cut-ins)"
     )
     leader_standstill_gap_m: float = Field(2.0, ge=0, description="... plus this gap (the ego keeps its distance)")
     edges: Literal["road", "corridor", "none"] = Field(

@@ -19,7 +19,19 @@ the disc's edge (measured: 1.2 m bumper to bumper for seconds, then swerving). T
 ahead in the ego's lane therefore reaches back by ``leader_standstill_gap_m + leader_time_headway_s * v``
 (about the distance SUMO's own drivers keep, Krauss tau = 1 s), but never over the ego: when the gap is
 already shorter (a car cut in), the cover ends just in front of the ego. A zone that suddenly contains the
-ego makes MPPI escape sideways out of its lane (measured), not brake.
+ego makes MPPI escape sideways out of its lane (measured), not brake. J0's time gap (below) now keeps the
+distance, along the path and with a gradient, and this extension is redundant and harmful: after a cut-in the
+capped zone sits 0.5 m in front of the ego at every step, and its graded disc cost pays the ego for moving
+sideways (dense traffic, seeds 100-119: lane excursions up to 1.9 m with it, at most 0.29 m with
+``leader_time_headway_s: 0``; docs/cost-design.md "Time gap"). It is therefore 0 by default.
+
+Time gap (J0's ``Surroundings.leaders``, :meth:`SurroundingsBuilder.leaders`): the vehicle ahead in the ego's
+path is the nearest one ahead on the lane J1 tracks (else the ego's own lane), plus a nearer one from a
+neighbouring lane that cuts in: its box already overlaps the path lane, or will within
+``CUT_IN_LOOKAHEAD_S`` at its lateral speed (its heading against its lane's; SUMO reports lateral motion only
+with the sublane model, without it a lane change is a jump and the car counts from the step it lands).
+Each is predicted at constant speed along the path; J0 measures the gap along the path, so the ego cannot
+open it by moving sideways.
 
 Which vehicles: those that can come within reach along the road during the horizon (a 1-D test at
 constant speeds, with slack for the ego's own speed changes), capped by ``range_ahead_m`` /
@@ -35,10 +47,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agentic_mpc.primitives import Circle, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.primitives import Circle, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.world.observation import Observation, ObstacleObservation, VehicleObservation
+
+CUT_IN_LOOKAHEAD_S = 1.0
+"""A neighbour whose box is predicted to reach into the ego's path lane within this time counts as a leader."""
+MAX_LEADERS = 3
 
 
 @dataclass(frozen=True, slots=True)
@@ -226,6 +242,51 @@ class SurroundingsBuilder:
             discs.append(MovingDisc(centres + offset * heading if offset else np.ascontiguousarray(centres),
                                     cover.radius_m))
 
+    def leaders(self, observation: Observation, target_lane: int | None) -> tuple[Leader, ...]:
+        """The vehicles ahead in the ego's path for J0's time gap (see the module docstring), nearest first."""
+        ego = observation.ego
+        path_lane = target_lane if target_lane is not None else (ego.lane_index if ego.lane_role else None)
+        if path_lane is None:
+            return ()
+        left, right = self._lane_bounds[path_lane]
+        centre, half = 0.5 * (left + right), 0.5 * (left - right)
+        table = self.road.lane_tables[path_lane]
+        candidates: list[tuple[float, VehicleObservation]] = []
+        for vehicle in observation.traffic:
+            if vehicle.relation != "ahead" or vehicle.lane_s_m is None or vehicle.offset_m > self.config.range_ahead_m:
+                continue
+            if vehicle.lane_index != path_lane:
+                if abs(vehicle.lane_index - path_lane) != 1:
+                    continue
+                vehicle_left, vehicle_right = self._lane_bounds[vehicle.lane_index]
+                lateral = 0.5 * (vehicle_left + vehicle_right) - centre + vehicle.lateral_offset_m
+                tx, ty = self.road.lane_tables[vehicle.lane_index].tangent(vehicle.lane_s_m)
+                lane_heading = math.atan2(ty, tx)
+                lateral_speed = vehicle.speed_mps * math.sin(vehicle.heading_rad - lane_heading)
+                lateral_then = lateral + lateral_speed * CUT_IN_LOOKAHEAD_S
+                if min(abs(lateral), abs(lateral_then)) - 0.5 * vehicle.width_m >= half:
+                    continue  # neither reaches into the path lane now nor within the lookahead
+            candidates.append((vehicle.gap_m, vehicle))
+        if not candidates:
+            return ()
+        candidates.sort(key=lambda item: item[0])
+        in_lane = next((n for n, (_, v) in enumerate(candidates) if v.lane_index == path_lane), len(candidates) - 1)
+        chosen = [v for _, v in candidates[: min(in_lane + 1, MAX_LEADERS)]]
+        s_ego = table.locate(ego.x_m, ego.y_m, ego.road_s_m)[0]
+        ego_s = s_ego + max(ego.speed_mps, 0.0) * self._steps
+        h = self.horizon
+        arcs = []
+        for vehicle in chosen:
+            s_vehicle = (vehicle.lane_s_m if vehicle.lane_index == path_lane
+                         else table.locate(vehicle.x_m, vehicle.y_m, vehicle.lane_s_m)[0])
+            contact = s_vehicle - 0.5 * (vehicle.length_m + self.ego_length_m) + vehicle.speed_mps * self._steps
+            arcs += [contact, 0.5 * (contact + ego_s)]  # the tangent halfway is parallel to the chord on an arc
+        points, tangents = table.at(np.concatenate(arcs))
+        return tuple(
+            Leader(points[2 * n * h:(2 * n + 1) * h], np.ascontiguousarray(tangents[(2 * n + 1) * h:(2 * n + 2) * h]))
+            for n in range(len(chosen))
+        )
+
     def corridor(self, observation: Observation, target_lane: int | None) -> tuple[float, float]:
         """(left, right) lateral bounds from the road's centre line of the lanes the ego may use: those its
         box overlaps now, and ``target_lane`` (the lane J1 tracks). The road's edges without a target lane."""
@@ -263,4 +324,5 @@ class SurroundingsBuilder:
             bounds = self.corridor(observation, target_lane) if mode == "corridor" else None
             left, right = self.edges(observation.ego.road_s_m, float(ego_state[3]), bounds)
         discs = self.discs(observation, target_lane)
-        return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right)
+        leaders = self.leaders(observation, target_lane)
+        return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders)

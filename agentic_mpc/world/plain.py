@@ -14,7 +14,7 @@ import numpy as np
 
 from agentic_mpc import vehicle
 from agentic_mpc.geometry import LanePath
-from agentic_mpc.primitives import Circle, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.primitives import Circle, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
 from agentic_mpc.world.collisions import boxes_overlap
@@ -117,16 +117,32 @@ class PlainWorld:
             for m in self._movers.values()
             if abs(m.x_m - x) < SENSING_RANGE_M
         )
-        if not self.config.road_edges:
-            return Surroundings(discs)
-        ahead = x + max(float(self._state[3]), 1.0) * self.dt_s * k
         tangents = np.tile([1.0, 0.0], (horizon, 1))
+        leaders = self._leaders(horizon, tracked_path, tangents)
+        if not self.config.road_edges:
+            return Surroundings(discs, leaders=leaders)
+        ahead = x + max(float(self._state[3]), 1.0) * self.dt_s * k
 
         def edge(y_m: float) -> TrackingReference:
             return TrackingReference(np.stack([ahead, np.full(horizon, y_m)], axis=1), tangents)
 
         half = 1.5 * self.road.lane_width_m
-        return Surroundings(discs, edge(half), edge(-half))
+        return Surroundings(discs, edge(half), edge(-half), leaders)
+
+    def _leaders(self, horizon: int, tracked_path: LanePath | None, tangents: np.ndarray) -> tuple[Leader, ...]:
+        """J0's time gap: the nearest mover ahead on the tracked lane (else the ego's), at constant speed; the
+        contact point is where the ego's centre is with its front bumper at the mover's rear."""
+        index = self.lane_index_of(tracked_path)
+        role = self.road.lane_of(float(self._state[1])) if index is None else self.lane(index)[0]
+        x = float(self._state[0])
+        ahead = [m for m in self._movers.values()
+                 if m.spec.lane == role and m.x_m - m.spec.radius_m - 0.5 * EGO_LENGTH_M > x
+                 and m.x_m - x < SENSING_RANGE_M]
+        if not ahead:
+            return ()
+        m = min(ahead, key=lambda mover: mover.x_m)
+        contact = m.x_m - m.spec.radius_m - 0.5 * EGO_LENGTH_M + m.speed_mps * self.dt_s * np.arange(1, horizon + 1)
+        return (Leader(np.stack([contact, np.full(horizon, self.road.lane_y_m(role))], axis=1), tangents),)
 
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
         self._state = vehicle.step(self._state, delta, throttle, brake, self.params)

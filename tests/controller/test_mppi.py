@@ -7,6 +7,7 @@ from agentic_mpc.controller import FourierMPPI, MPPIConfig
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import (
     Circle,
+    Leader,
     Mandatory,
     MovingDisc,
     ObstacleAvoidance,
@@ -31,6 +32,8 @@ def specifications():
         "J3 paper, no path": Specification.of(PreferredSteeringDirection(direction="left", form="paper")),
         "J3 lateral, no path": Specification.of(PreferredSteeringDirection(direction="left")),
         "J0 with rate term": Specification.of(Mandatory(input_rate_weight=5.0, speed_limit_mps=14.0), j1),
+        "J0 time gap 2 s, 5 m": Specification.of(Mandatory(time_gap_s=2.0, standstill_gap_m=5.0, time_gap_weight=3.0), j1),
+        "J0 time gap off": Specification.of(Mandatory(time_gap_weight=0.0), j1),
         "J1 lateral weight": Specification.of(j1.model_copy(update={"lateral_weight": 6.0}), j2),
     }
 
@@ -42,7 +45,12 @@ def surroundings(horizon):
         np.column_stack([np.linspace(0, 30, horizon), np.full(horizon, 5.0)]), np.tile([1.0, 0.0], (horizon, 1))
     )
     right = TrackingReference(edge.points - [0, 10.0], edge.tangents)
-    return Surroundings(moving_discs=(MovingDisc(ahead, 2.5),), road_left_edge=edge, road_right_edge=right)
+    # Two leaders: one 14 m ahead at 10 m/s (the samples at 14 m/s fall short of the time gap), one on a bend.
+    leader = Leader(np.hstack([16 + 10 * 0.04 * k, np.full_like(k, 1.0, dtype=float)]), np.tile([1.0, 0.0], (horizon, 1)))
+    angle = np.linspace(0.0, 0.4, horizon)[:, None]
+    bend = Leader(np.hstack([30 + 20 * np.sin(angle), 1 + 20 * (1 - np.cos(angle))]), np.hstack([np.cos(angle), np.sin(angle)]))
+    return Surroundings(moving_discs=(MovingDisc(ahead, 2.5),), road_left_edge=edge, road_right_edge=right,
+                        leaders=(leader, bend))
 
 
 @pytest.mark.parametrize("name", list(specifications()))

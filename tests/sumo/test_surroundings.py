@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 import pytest
 
@@ -79,7 +82,8 @@ def test_followers_in_lane_are_left_out_and_neighbours_are_in():
 
 def test_a_leader_gets_a_following_distance_that_never_covers_the_ego():
     leader = VehicleSpawn(id="leader", lane="center", pos_m=250.0, speed_mps=10.0, max_speed_mps=10.0)
-    with SumoWorld(curvy_config(vehicles=(leader,))) as world:
+    extended = SurroundingsConfig(leader_time_headway_s=1.0, leader_standstill_gap_m=2.0)  # no longer the default
+    with SumoWorld(curvy_config(vehicles=(leader,), surroundings=extended)) as world:
         builder, observation = builder_of(world), world.observation
         ego = observation.ego
         discs = builder.discs(observation, target_lane=1)
@@ -116,3 +120,37 @@ def test_edges_road_and_corridor():
         # The world builds the same for the controller when J1 tracks the centre lane (index 1).
         through_world = world.surroundings(MPPIConfig().horizon, world.lane("center")[1])
         assert through_world.road_left_edge.points == pytest.approx(surroundings.road_left_edge.points)
+
+
+def test_the_time_gap_leader_is_the_nearest_vehicle_ahead_in_the_path_and_a_car_cutting_in():
+    vehicles = (
+        VehicleSpawn(id="leader", lane="center", pos_m=260.0, speed_mps=10.0, max_speed_mps=10.0),
+        VehicleSpawn(id="neighbour", lane="left", pos_m=240.0, speed_mps=15.0, max_speed_mps=15.0),
+    )
+    with SumoWorld(curvy_config(vehicles=vehicles)) as world:
+        builder, observation = builder_of(world), world.observation
+        ego, leader_obs, neighbour = (observation.ego, observation.vehicle("leader"), observation.vehicle("neighbour"))
+        (leader,) = builder.leaders(observation, target_lane=1)  # the neighbour keeps to its lane: not a leader
+        assert builder.build(observation, world.ego_state, target_lane=1).leaders[0].contact_points == pytest.approx(
+            leader.contact_points)
+        assert np.hypot(*leader.tangents.T) == pytest.approx(np.ones(len(leader.tangents)))
+        # Stage 1: the leader has moved 0.4 m; measured from the ego's centre the gap is the observed one.
+        gap_now = leader.tangents[0] @ (leader.contact_points[0] - [ego.x_m, ego.y_m])
+        assert gap_now == pytest.approx(leader_obs.gap_m + 10.0 * 0.04, abs=0.1)
+        # Predicted along the lane at constant speed: 10 m/s x 2 s further on at the last stage.
+        travelled = np.hypot(*(leader.contact_points[-1] - leader.contact_points[0]))
+        assert travelled == pytest.approx(10.0 * 0.04 * (builder.horizon - 1), abs=0.1)
+        # The neighbour nearer than the leader cuts in: already 1.5 m over towards the centre lane, or heading
+        # into it at 1.5 m/s (it reaches the lane within the lookahead). Nearest first.
+        lane_heading = math.atan2(*reversed(world.road.lane_tables[neighbour.lane_index].tangent(neighbour.lane_s_m)))
+        for cut_in in (dataclasses.replace(neighbour, lateral_offset_m=-1.5),
+                       dataclasses.replace(neighbour, heading_rad=lane_heading - math.asin(1.5 / neighbour.speed_mps))):
+            others = tuple(cut_in if v.id == "neighbour" else v for v in observation.traffic)
+            leaders = builder.leaders(dataclasses.replace(observation, traffic=others), target_lane=1)
+            assert len(leaders) == 2
+            first_gap = leaders[0].tangents[0] @ (leaders[0].contact_points[0] - [ego.x_m, ego.y_m])
+            assert first_gap == pytest.approx(neighbour.gap_m + 15.0 * 0.04, abs=0.3)
+        # Tracking the left lane instead: the neighbour is the leader there.
+        (left_leader,) = builder.leaders(observation, target_lane=2)
+        assert left_leader.tangents[0] @ (left_leader.contact_points[0] - [ego.x_m, ego.y_m]) == pytest.approx(
+            neighbour.gap_m + 15.0 * 0.04, abs=0.3)
