@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 
 from agentic_mpc.controller.config import MPPIConfig
 from agentic_mpc.scenario.yaml_source import ScenarioFileError, YamlDocument, YamlPath, deep_merge, load_yaml
@@ -85,6 +85,16 @@ class AgentSettings(_Strict):
     ctx_size: int = Field(8192, ge=256, le=1_048_576, description="llamacpp: context size in tokens")
     max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step (a model "
                                      "that keeps calling tools is stopped there)")
+
+    @field_validator("model")
+    @classmethod
+    def _model_file_for_llamacpp(cls, model: str, info: ValidationInfo) -> str:
+        """llamacpp: the GGUF file must exist before anything starts (said with the YAML path / --agent key)."""
+        if info.data.get("backend") == "llamacpp":
+            from agentic_mpc.agent.backends.llamacpp import check_gguf  # light: no llama.cpp import
+
+            check_gguf(model)
+        return model
     mode: Literal["lockstep", "realtime"] = Field(
         "lockstep", description="lockstep: reproducible, tool calls take effect latency_s after the message"
     )
