@@ -59,3 +59,18 @@ def with_agent_settings(scenario, pairs: list[tuple[str, str]]):  # (Scenario, .
         where = ".".join(str(part) for part in first["loc"])
         raise ValueError(f"--agent {where}: {first['msg']}") from None
     return scenario.model_copy(update={"agent": agent})
+
+
+def chat_options(args: argparse.Namespace) -> dict:
+    """``ask``'s and ``eval-agent``'s chat-backend flags as backend options (the ones given); ``ValueError``
+    for an ``--extra-body`` that is not JSON."""
+    import json
+
+    options = {name: getattr(args, name) for name in ("tool_mode", "temperature", "max_tokens")
+               if getattr(args, name) is not None}
+    if args.extra_body:
+        try:
+            options["extra_body"] = json.loads(args.extra_body)
+        except json.JSONDecodeError as error:
+            raise ValueError(f"--extra-body is not JSON: {error}") from None
+    return options

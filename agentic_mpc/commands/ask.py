@@ -28,6 +28,8 @@ import logging
 import sys
 from pathlib import Path
 
+from agentic_mpc.commands import chat_options
+
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "paper_steering_preference_plain.yaml"
 
 
@@ -71,13 +73,7 @@ def _backend(args: argparse.Namespace):  # -> Backend
 
     if args.backend == "rules":
         return make_backend("rules", yield_lane=args.yield_lane or "left")
-    options = {key: value for key, value in (("tool_mode", args.tool_mode), ("temperature", args.temperature),
-                                             ("max_tokens", args.max_tokens)) if value is not None}
-    if args.extra_body:
-        try:
-            options["extra_body"] = json.loads(args.extra_body)
-        except json.JSONDecodeError as error:
-            raise ValueError(f"--extra-body is not JSON: {error}") from None
+    options = chat_options(args)
     if args.backend == "llamacpp":
         if args.model_path is None:
             raise ValueError("--backend llamacpp needs --model-path (a GGUF model file)")
