@@ -42,8 +42,13 @@ def test_a_scenario_can_choose_it(tmp_path):
     from agentic_mpc.scenario.runner import build_backend
     from agentic_mpc.scenario.schema import AgentSettings
 
-    settings = AgentSettings(backend="llamacpp", model=str(tmp_path / "granite.gguf"))
-    with pytest.raises(ModelFileError, match="granite.gguf does not exist"):
+    # the file is checked when the scenario is read, before any world starts
+    with pytest.raises(ValueError, match="granite.gguf does not exist"):
+        AgentSettings(backend="llamacpp", model=str(tmp_path / "granite.gguf"))
+    fake = tmp_path / "fake.gguf"
+    fake.write_bytes(b"GGUF" + bytes(60))  # passes the check, but llama.cpp cannot load it: said when built
+    settings = AgentSettings(backend="llamacpp", model=str(fake), threads=2, ctx_size=1024)
+    with pytest.raises(ModelFileError, match="llama.cpp could not load"):
         build_backend(settings, lefthand=True)
 
 

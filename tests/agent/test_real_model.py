@@ -184,7 +184,7 @@ def test_an_abandoned_answer_stops_generating(in_process):
 
 
 def test_a_lockstep_scenario_2_run_with_the_model_completes_with_its_calls_in_events(tmp_path):
-    """The paper's Scenario 2 in SUMO with the real model as the agent (lockstep: reproducible), 10 s."""
+    """The paper's Scenario 2 in SUMO with the real model as the agent (lockstep: reproducible), 6 s."""
     import pandas as pd
 
     from agentic_mpc.commands import with_agent_settings
@@ -192,14 +192,14 @@ def test_a_lockstep_scenario_2_run_with_the_model_completes_with_its_calls_in_ev
     from agentic_mpc.scenario.schema import load_scenario
 
     scenario = load_scenario(REPO / "scenarios/paper_emergency_response.yaml").variant("yield")
-    scenario = with_agent_settings(scenario.model_copy(update={"duration_s": 10.0}), [
+    scenario = with_agent_settings(scenario.model_copy(update={"duration_s": 6.0}), [
         ("backend", "llamacpp"), ("model", str(MODEL)), ("max_tokens", str(ANSWER_TOKENS)), ("threads", "1")])
     summary = run_scenario(scenario, tmp_path)
-    assert summary["status"] == "ok" and summary["steps"] >= 240
+    assert summary["status"] == "ok" and summary["steps"] >= 140
     events = pd.read_csv(tmp_path / "events.csv")
     steps = events[events.event == "step_end"]
     assert len(steps) >= 1  # the passenger's message at 1 s was answered
     calls = events[events.event == "tool_call"]
     received = events[(events.event == "tool_call_received") & (events.client.str.startswith("agentic-mpc-agent"))]
     assert sorted(calls.tool) == sorted(received.tool)  # every call the model made reached the server
-    assert not events.error.fillna("").str.contains(UNPARSED).any()  # nothing it said went unread
+    assert not events.error.astype("string").fillna("").str.contains(UNPARSED).any()  # nothing went unread

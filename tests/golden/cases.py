@@ -26,6 +26,7 @@ DURATION_S = {
     "paper_emergency_response": None,
     "traffic_ambulance_dense": 125.0,
     "traffic_density_sweep": 100.0,
+    "emergency_rescue_lane_traffic": 115.0,  # sublane traffic is SUMO's dearest step: the ambulance's approach
 }
 
 WALL_CLOCK_COLUMNS = {

@@ -63,14 +63,14 @@ def test_a_message_typed_into_the_page_reaches_the_agent_and_changes_the_specifi
             state = page.evaluate("window.replayState")
             assert state["t"] > opened_at_s and "ambulance" in " ".join(state["captions"] + [MESSAGE]).lower()
             assert any(text.startswith("run_left_lane(") for text in state["captions"]), state["captions"]
-            page.wait_for_timeout(8000)  # the page stays open while the car drives on
+            page.wait_for_timeout(5000)  # the page stays open while the car drives on
             page.screenshot(path=str(tmp_path / "live.png"))
             if os.environ.get("AGENTIC_MPC_UPDATE_DOCS"):
                 shutil.copyfile(tmp_path / "live.png", DOCS_SCREENSHOT)
             open_until_s = page.evaluate("window.replayState")["t"]
             assert errors == []
             browser.close()
-        time.sleep(6)  # the run goes on without the page: the baseline of the control step
+        time.sleep(4)  # the run goes on without the page: the baseline of the control step
     finally:
         code = served.stop()
     assert code == 0, served.stderr
@@ -87,23 +87,33 @@ def test_a_message_typed_into_the_page_reaches_the_agent_and_changes_the_specifi
     print(f"\nlive view: controller solve median {window.solve_ms.median():.3f} ms, loop step median "
           f"{window.step_ms.median():.3f} ms with the page open ({len(window)} steps); after it closed "
           f"{closed.solve_ms.median():.3f} / {closed.step_ms.median():.3f} ms ({len(closed)} steps)")
-    assert len(window) > 200 and len(closed) > 75
+    assert len(window) > 120 and len(closed) > 60
     assert window.step_ms.median() < 1.5 * closed.step_ms.median()
 
 
-def test_the_page_refuses_foreign_hosts_origins_and_malformed_chat(tmp_path):
-    served = _served_view(tmp_path)
+def test_the_page_wants_the_token_once_and_refuses_foreign_hosts_origins_and_malformed_chat(tmp_path):
+    env = {k: v for k, v in os.environ.items()} | {"AGENTIC_MPC_TOKEN": TOKEN, "OMP_NUM_THREADS": "1"}
+    served = _served_view(tmp_path, env=env)
     base = f"http://127.0.0.1:{served.port}"
     try:
         with httpx.Client(timeout=10) as http:
-            assert http.get(base + "/", headers={"host": "evil.example"}).status_code == 421
-            page = http.get(base + "/")
+            # the token: a header, or once in the page's URL, then as a cookie
+            assert http.get(base + "/").status_code == 401
+            assert http.get(base + "/?token=wrong-token-0123456789").status_code == 401
+            login = http.get(base + f"/?token={TOKEN}", follow_redirects=False)
+            assert login.status_code == 303 and "HttpOnly" in login.headers["set-cookie"]
+            assert "SameSite=Strict" in login.headers["set-cookie"]
+            assert http.get(base + "/", headers={"authorization": "Bearer nope-0123456789abcdef"}).status_code == 401
+            page = http.get(base + "/")  # the cookie now goes along
             assert page.status_code == 200 and "window.replayAppend" in page.text and "chat-text" in page.text
             assert page.headers["x-frame-options"] == "DENY"
             assert "default-src 'none'" in page.headers["content-security-policy"]
+            # Host and Origin, as for /mcp
+            assert http.get(base + "/", headers={"host": "evil.example"}).status_code == 421
             origin = {"origin": base, "content-type": "application/json"}
             foreign = {"origin": "http://evil.example", "content-type": "application/json"}
             assert http.post(base + "/chat", json={"text": "x"}, headers=foreign).status_code == 403
+            # malformed chat, then the rate limit with a clear error
             assert http.post(base + "/chat", content=b"{", headers=origin).status_code == 400
             assert http.post(base + "/chat", json={"text": ""}, headers=origin).status_code == 400
             assert http.post(base + "/chat", content=b"x" * 10_000, headers=origin).status_code == 413
@@ -112,24 +122,7 @@ def test_the_page_refuses_foreign_hosts_origins_and_malformed_chat(tmp_path):
             assert http.get(base + "/events?track=minus").status_code == 400
             statuses = [http.post(base + "/chat", json={"text": f"hello {k}"}, headers=origin).status_code
                         for k in range(8)]
-            assert statuses[0] == 200 and 429 in statuses  # rate limited, with a clear error
+            assert statuses[0] == 200 and 429 in statuses
     finally:
         assert served.stop() == 0
     assert "Traceback" not in served.stderr
-
-
-def test_with_a_token_the_page_wants_it_once_then_keeps_it_as_a_cookie(tmp_path):
-    env = {k: v for k, v in os.environ.items()} | {"AGENTIC_MPC_TOKEN": TOKEN, "OMP_NUM_THREADS": "1"}
-    served = _served_view(tmp_path, env=env)
-    base = f"http://127.0.0.1:{served.port}"
-    try:
-        with httpx.Client(timeout=10) as http:
-            assert http.get(base + "/").status_code == 401
-            assert http.get(base + "/?token=wrong-token-0123456789").status_code == 401
-            login = http.get(base + f"/?token={TOKEN}", follow_redirects=False)
-            assert login.status_code == 303 and "HttpOnly" in login.headers["set-cookie"]
-            assert "SameSite=Strict" in login.headers["set-cookie"]
-            assert http.get(base + "/").status_code == 200  # the cookie now goes along
-            assert http.get(base + "/", headers={"authorization": "Bearer nope-0123456789abcdef"}).status_code == 401
-    finally:
-        assert served.stop() == 0
