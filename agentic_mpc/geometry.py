@@ -65,6 +65,12 @@ class LanePath:
         return self._xy
 
     @property
+    def arrays(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """(vertices (N, 2), arc length at each vertex (N,), unit tangent of each segment (N-1, 2)), for
+        compiled code that walks the polyline (``primitives/reference_kernel.py``)."""
+        return self._xy, self._s, self._unit_tangents
+
+    @property
     def length_m(self) -> float:
         return float(self._s[-1])
 

@@ -73,12 +73,12 @@ class OneStepShift:
 
     def __init__(self, order: int, horizon: int) -> None:
         theta = 2.0 * np.pi * np.arange(1, order + 1) / horizon
-        self._cos, self._sin = np.cos(theta), np.sin(theta)
+        self.cos, self.sin = np.cos(theta), np.sin(theta)  # of each harmonic's rotation
 
     def __call__(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
         z = np.asarray(z, dtype=np.float64)
         shifted = z.copy()
         alpha, beta = z[..., 1::2], z[..., 2::2]
-        shifted[..., 1::2] = alpha * self._cos - beta * self._sin
-        shifted[..., 2::2] = alpha * self._sin + beta * self._cos
+        shifted[..., 1::2] = alpha * self.cos - beta * self.sin
+        shifted[..., 2::2] = alpha * self.sin + beta * self.cos
         return shifted

@@ -217,65 +217,6 @@ def rollout_costs(
                 costs[i] += gap_w * (knee * (2.0 * shortfall - knee) if shortfall > knee else shortfall * shortfall)
 
 
-# No fastmath here: costs may be infinite (a sample with a non-finite cost), and fastmath assumes they are not.
-_JIT_EXACT = {"error_model": "numpy", "cache": True, "nogil": True}
-
-
-@numba.njit(**_JIT_EXACT)
-def effective_samples(shifted_costs, temperature):
-    """(sum w)^2 / sum w^2 with w = exp(-shifted / T); ``shifted_costs`` >= 0, inf for excluded samples."""
-    total = 0.0
-    squares = 0.0
-    inverse = 1.0 / temperature
-    for i in range(shifted_costs.shape[0]):
-        w = np.exp(-shifted_costs[i] * inverse)
-        total += w
-        squares += w * w
-    return total * total / squares
-
-
-@numba.njit(**_JIT_EXACT)
-def temperature_for_band(shifted_costs, temperature, low, high):
-    """A temperature whose effective sample size lies in [low, high], starting from ``temperature``.
-
-    ESS grows monotonically with T. If ``temperature`` already gives an ESS in the band it is kept (so the
-    weighting changes only when it must); otherwise T is bracketed by factors of 4 and bisected in log T
-    towards the band's geometric middle. Costs that cannot reach the band (all equal, or one finite
-    sample) end at the bracket's limit. Returns (T, ESS).
-    """
-    ess = effective_samples(shifted_costs, temperature)
-    if low <= ess <= high:
-        return temperature, ess
-    target = np.sqrt(low * high)
-    lower, upper = temperature, temperature
-    if ess < low:
-        for _ in range(30):
-            lower = upper
-            upper *= 4.0
-            ess = effective_samples(shifted_costs, upper)
-            if ess >= target or upper > 1e12:
-                break
-        t = upper
-    else:
-        for _ in range(30):
-            upper = lower
-            lower *= 0.25
-            ess = effective_samples(shifted_costs, lower)
-            if ess <= target or lower < 1e-12:
-                break
-        t = lower
-    for _ in range(20):
-        if low <= ess <= high and abs(np.log(ess / target)) < 0.2:
-            break
-        t = np.sqrt(lower * upper)
-        ess = effective_samples(shifted_costs, t)
-        if ess < target:
-            lower = t
-        else:
-            upper = t
-    return t, ess
-
-
 def fused_costs(
     state: np.ndarray,
     params_packed: np.ndarray,
@@ -289,3 +230,47 @@ def fused_costs(
     """Run the fused kernel on one step's terms; fills and returns ``costs``."""
     rollout_costs(state, params_packed, basis, z_delta, z_ab, *terms, work, costs)
     return costs
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def assemble_samples(noise_map, noise, mean, antithetic, include_mean, z):
+    """z = mean + noise_map @ noise, per input, into ``z`` (2, C, S): the noisy half then its mirror image
+    (``antithetic``), and sample 0 the unperturbed mean (``include_mean``). ``noise_map`` (2, C, C) is the
+    pinned map or diag(std); ``noise`` (2, C, S/2 or S) standard normal. What ``FourierMPPI.sample`` does in
+    NumPy, without its temporaries."""
+    n_inputs, n_coef, n_noise = noise.shape
+    for a in range(n_inputs):
+        for c in range(n_coef):
+            m = mean[a, c]
+            for s in range(n_noise):
+                z[a, c, s] = 0.0
+            for j in range(n_coef):
+                factor = noise_map[a, c, j]
+                if factor != 0.0:
+                    for s in range(n_noise):
+                        z[a, c, s] += factor * noise[a, j, s]
+            for s in range(n_noise):
+                scaled = z[a, c, s]
+                z[a, c, s] = scaled + m
+                if antithetic:
+                    z[a, c, n_noise + s] = m - scaled
+            if include_mean:
+                z[a, c, 0] = m
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def start_and_shift(z, cos_l, sin_l, shifted):
+    """u(0) of each input's series (beta_0 + sum beta_l) and, into ``shifted``, the coefficients advanced by
+    one step (each harmonic's (alpha_l, beta_l) rotated by 2 pi l / H): ``fourier.value_at_start`` and
+    ``fourier.OneStepShift`` in one call. Returns (delta(0), ab(0))."""
+    starts = np.empty(z.shape[0])
+    for a in range(z.shape[0]):
+        betas = 0.0  # summed before adding beta_0, in NumPy's order, so that u(0) is bitwise the reference's
+        shifted[a, 0] = z[a, 0]
+        for l in range(cos_l.shape[0]):
+            alpha, beta = z[a, 1 + 2 * l], z[a, 2 + 2 * l]
+            betas += beta
+            shifted[a, 1 + 2 * l] = alpha * cos_l[l] - beta * sin_l[l]
+            shifted[a, 2 + 2 * l] = alpha * sin_l[l] + beta * cos_l[l]
+        starts[a] = z[a, 0] + betas
+    return starts[0], starts[1]

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agentic_mpc.controller import fourier, kernels
+from agentic_mpc.controller import fourier, kernels, weighting
 from agentic_mpc.controller.config import MPPIConfig
 from agentic_mpc.controller.rollout import rollout
 from agentic_mpc.primitives.base import Rollouts, StepContext, Surroundings
@@ -79,6 +79,10 @@ class FourierMPPI:
             if c.first_input_noise == "pinned"
             else None
         )
+        self._fast = c.backend == "fast"
+        self._compiled_noise_map = np.ascontiguousarray(
+            self._noise_map if self._noise_map is not None else np.stack([np.diag(std) for std in self.std])
+        )
         self.rng = np.random.default_rng(seed)
         self._params_packed = kernels.pack_params(params)
         # Buffers allocated once: re-allocating (2L+1, S) and (9, S) arrays every step costs measurably.
@@ -87,6 +91,7 @@ class FourierMPPI:
         self._scaled = np.empty_like(self._noise)
         self._work = np.empty((9, c.samples))
         self._costs = np.empty(c.samples)
+        self._weights = np.empty(c.samples)
         self.mean = np.zeros((2, c.coefficients))
         self.optimum = self.mean
         self.previous_input = (0.0, 0.0)  # (delta, throttle/brake) applied last step, for J0's rate term
@@ -105,6 +110,9 @@ class FourierMPPI:
         c = self.config
         z = self._z
         self.rng.standard_normal(out=self._noise)
+        if self._fast:  # the same arithmetic, compiled (tests/controller/test_mppi.py compares the two)
+            kernels.assemble_samples(self._compiled_noise_map, self._noise, self.mean, c.antithetic, c.include_mean, z)
+            return z
         if self._noise_map is not None:
             np.matmul(self._noise_map, self._noise, out=self._scaled)
         else:
@@ -152,15 +160,19 @@ class FourierMPPI:
         prepared = specification.prepare(self.context(state, surroundings))
         z = self.sample()
         costs, fast = self.costs(prepared, state, z)
-        weighting = self.weights(costs, self.temperature)
-        if weighting.weights is not None:
-            optimum = np.einsum("s,ics->ic", weighting.weights, z)
-            self.temperature = weighting.temperature
+        weights, optimum = self.average(costs, z)
+        if weights.found:
+            self.temperature = weights.temperature
         else:  # every sample's cost was NaN or infinite: keep the previous plan rather than average garbage
             optimum = self.mean
         self.optimum = optimum
-        delta_now, ab_now = (float(v) for v in fourier.value_at_start(optimum))
-        self.mean = self._shift(optimum) if self.config.warm_start == "shifted" else optimum
+        if self._fast:
+            shifted = np.empty_like(optimum)
+            delta_now, ab_now = kernels.start_and_shift(optimum, self._shift.cos, self._shift.sin, shifted)
+        else:
+            delta_now, ab_now = (float(v) for v in fourier.value_at_start(optimum))
+            shifted = self._shift(optimum)
+        self.mean = shifted if self.config.warm_start == "shifted" else optimum
         smoothing = self.config.input_smoothing
         if smoothing:
             delta_now = smoothing * self.previous_input[0] + (1.0 - smoothing) * delta_now
@@ -173,13 +185,29 @@ class FourierMPPI:
             delta=delta_now,
             throttle=max(ab_now, 0.0),
             brake=-min(ab_now, 0.0),
-            cost_min=weighting.cost_min,
-            effective_samples=weighting.effective_samples,
-            effective_fraction=weighting.effective_samples / self.config.samples,
-            temperature=weighting.temperature,
+            cost_min=weights.cost_min,
+            effective_samples=weights.effective_samples,
+            effective_fraction=weights.effective_samples / self.config.samples,
+            temperature=weights.temperature,
             solve_ms=(time.perf_counter() - started) * 1e3,
             used_fast_path=fast,
         )
+
+    def average(self, costs: np.ndarray, z: np.ndarray) -> tuple[Weighting, np.ndarray]:
+        """This step's weights and the weighted mean of the samples ``z`` (2, 2L+1, S); the mean is
+        meaningless when ``Weighting.found`` is False (no finite cost)."""
+        c = self.config
+        if not self._fast or c.elite_samples is not None:
+            weighting_ = self.weights(costs, self.temperature)
+            if weighting_.weights is None:
+                return weighting_, self.mean
+            return weighting_, np.einsum("s,ics->ic", weighting_.weights, z)
+        optimum = np.empty((2, c.coefficients))
+        low, high = c.ess_band if c.ess_band is not None else (0.0, 0.0)
+        found, cost_min, temperature, ess = weighting.weigh_and_average(
+            costs, z, self.temperature, low * c.samples, high * c.samples, c.ess_band is not None, self._weights, optimum
+        )
+        return Weighting(self._weights if found else None, cost_min, temperature, ess), optimum
 
     def planned_states(self, state: np.ndarray) -> np.ndarray:
         """The optimal predicted trajectory of the last step: its weighted-mean coefficients rolled out from
@@ -203,7 +231,7 @@ class FourierMPPI:
             shifted[np.argpartition(shifted, c.elite_samples)[c.elite_samples:]] = np.inf
         if c.ess_band is not None:
             low, high = c.ess_band
-            temperature, _ = kernels.temperature_for_band(shifted, temperature, low * len(costs), high * len(costs))
+            temperature, _ = weighting.temperature_for_band(shifted, temperature, low * len(costs), high * len(costs))
         weights = np.exp(-shifted / temperature)
         weights /= weights.sum()
         return Weighting(weights, cost_min, float(temperature), float(1.0 / np.dot(weights, weights)))
@@ -217,3 +245,8 @@ class Weighting:
     cost_min: float
     temperature: float
     effective_samples: float
+
+    @property
+    def found(self) -> bool:
+        """Whether some sample had a finite cost (else there are no weights)."""
+        return self.weights is not None

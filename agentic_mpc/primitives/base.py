@@ -157,15 +157,20 @@ class FusedTerms:
     time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
 
     def build(self) -> FusedArrays:
+        # Called every control step: the empty and single-item cases (most of them) allocate nothing new, and
+        # np.array copies a list of arrays in C where np.stack costs about 15 us in Python.
         h = self.horizon
+        no_stages = _empty((0, h, 2))
 
         def stack(arrays: list[FloatArray]) -> FloatArray:
-            if len(arrays) == 1:  # the common case; np.stack costs several microseconds
+            if not arrays:
+                return no_stages
+            if len(arrays) == 1:
                 return np.ascontiguousarray(arrays[0])[None]
-            return np.ascontiguousarray(np.stack(arrays)) if arrays else np.zeros((0, h, 2))
+            return np.array(arrays, dtype=np.float64)
 
         def table(rows: list[tuple[float, ...]], width: int) -> FloatArray:
-            return np.array(rows, dtype=np.float64).reshape(len(rows), width)
+            return _table(tuple(rows), width)
 
         return FusedArrays(
             track_ref=stack([ref for ref, _, _, _ in self.track]),
@@ -176,7 +181,7 @@ class FusedTerms:
             lateral_sign=table([(sign, w, dead_zone) for sign, w, dead_zone, _, _ in self.lateral], 3),
             lateral_ref=stack([ref for *_, ref, _ in self.lateral]),
             lateral_tan=stack([tan for *_, tan in self.lateral]),
-            limits=np.array(self.limits, dtype=np.float64),
+            limits=np.array(self.limits, dtype=np.float64),  # holds the previous input: new every step
             disc_centres=stack([c for c, _, _ in self.discs]),
             disc_params=table([(r * r, w) for _, r, w in self.discs], 2),
             edge_ref=stack([p for p, _, _, _, _ in self.edges]),
@@ -185,8 +190,35 @@ class FusedTerms:
             leader_points=stack([p for p, _, _ in self.leaders]),
             leader_tan=stack([t for _, t, _ in self.leaders]),
             leader_start=np.array([start for _, _, start in self.leaders], dtype=np.float64),
-            time_gap=np.array(self.time_gap, dtype=np.float64),
+            time_gap=_table((self.time_gap,), len(self.time_gap))[0],
         )
+
+
+_EMPTY_ARRAYS: dict[tuple[int, ...], FloatArray] = {}
+_TABLES: dict[tuple[tuple[tuple[float, ...], ...], int], FloatArray] = {}
+_TABLES_KEPT = 512
+
+
+def _empty(shape: tuple[int, ...]) -> FloatArray:
+    """A shared empty array of ``shape``: it has no element to change. (Not flagged read-only: Numba would
+    compile the kernel once more for every mix of read-only and writable arguments.)"""
+    array = _EMPTY_ARRAYS.get(shape)
+    if array is None:
+        array = _EMPTY_ARRAYS[shape] = np.zeros(shape)
+    return array
+
+
+def _table(rows: tuple[tuple[float, ...], ...], width: int) -> FloatArray:
+    """``rows`` as an (n, width) array, shared between steps with the same rows: weights and limits change
+    only when the agent changes the specification, and building the array anew costs microseconds each step.
+    The kernel only reads these arrays."""
+    key = (rows, width)
+    array = _TABLES.get(key)
+    if array is None:
+        if len(_TABLES) >= _TABLES_KEPT:  # bounded: rows that keep changing (e.g. leader gaps) are not kept long
+            _TABLES.clear()
+        array = _TABLES[key] = np.array(rows, dtype=np.float64).reshape(len(rows), width)
+    return array
 
 
 class PreparedCost(Protocol):

@@ -90,20 +90,13 @@ class PathTracking(Primitive):
     def summary(self) -> str:
         return f"path_tracking(lane={self.lane}, v_ref_mps={self.v_ref_mps:g})"
 
-    def _ramped_reference(self, x: float, y: float, v_mps: float, dt_s: float, horizon: int) -> tuple:
-        """Points travelling from the ego's speed to v_ref at ``reference_accel_mps2``, spaced by arc length."""
-        assert self.reference_accel_mps2 is not None
-        elapsed = dt_s * np.arange(1, horizon + 1)
-        change = self.v_ref_mps - v_mps
-        speeds = v_mps + np.sign(change) * np.minimum(abs(change), self.reference_accel_mps2 * elapsed)
-        return self.path.points_and_tangents_at(self.path.project(x, y) + np.cumsum(speeds) * dt_s)
-
     def prepare(self, context: StepContext) -> PreparedPathTracking:
+        from agentic_mpc.primitives.reference_kernel import reference_points  # compiled: load on first use
+
         x, y, _, v = (float(value) for value in context.state)
-        if self.reference_accel_mps2 is None:
-            points, tangents = self.path.reference_points(x, y, self.v_ref_mps, context.dt_s, context.horizon)
-        else:
-            points, tangents = self._ramped_reference(x, y, v, context.dt_s, context.horizon)
+        points, tangents = reference_points(
+            self.path, x, y, v, self.v_ref_mps, self.reference_accel_mps2, context.dt_s, context.horizon
+        )
         stage_weight = 0.5 * per_stage(self.weight, context.horizon, self.normalise_by_horizon)
         return PreparedPathTracking(TrackingReference(points, tangents), stage_weight, self.lateral_weight)
 

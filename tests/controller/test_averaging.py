@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from agentic_mpc.controller import FourierMPPI, MPPIConfig, fourier, kernels
+from agentic_mpc.controller import FourierMPPI, MPPIConfig, fourier, weighting
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import Mandatory, PathTracking, Specification
 
@@ -57,20 +57,20 @@ def test_paper_sampling_is_one_option_away():
 def test_temperature_search_lands_in_the_band(spread):
     shifted = np.random.default_rng(3).exponential(spread, 256)
     shifted -= shifted.min()
-    temperature, ess = kernels.temperature_for_band(shifted, 1.0, 0.05 * 256, 0.2 * 256)
+    temperature, ess = weighting.temperature_for_band(shifted, 1.0, 0.05 * 256, 0.2 * 256)
     assert 0.05 * 256 <= ess <= 0.2 * 256
     weights = np.exp(-shifted / temperature)
     assert (weights.sum() ** 2 / (weights**2).sum()) == pytest.approx(ess)
     # a temperature already in the band is kept: the weighting changes only when it must
-    assert kernels.temperature_for_band(shifted, temperature, 0.05 * 256, 0.2 * 256)[0] == temperature
+    assert weighting.temperature_for_band(shifted, temperature, 0.05 * 256, 0.2 * 256)[0] == temperature
 
 
 def test_temperature_search_survives_costs_that_cannot_reach_the_band():
     one_finite = np.r_[0.0, np.full(255, np.inf)]
-    temperature, ess = kernels.temperature_for_band(one_finite, 1.0, 12.8, 51.2)
+    temperature, ess = weighting.temperature_for_band(one_finite, 1.0, 12.8, 51.2)
     assert np.isfinite(temperature) and ess == pytest.approx(1.0)
     all_equal = np.zeros(256)
-    temperature, ess = kernels.temperature_for_band(all_equal, 1.0, 12.8, 51.2)
+    temperature, ess = weighting.temperature_for_band(all_equal, 1.0, 12.8, 51.2)
     assert np.isfinite(temperature) and ess == pytest.approx(256.0)
 
 

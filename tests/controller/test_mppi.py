@@ -142,3 +142,51 @@ def test_the_recorded_plan_starts_where_the_applied_input_takes_the_car():
     np.testing.assert_allclose(plan[0], vehicle_step(state, out.delta, out.throttle, out.brake, controller.params),
                                atol=1e-9)
     assert np.all(np.diff(plan[:, 0]) > 0)  # it drives on along the lane
+
+
+@pytest.mark.parametrize("noise", ["pinned", "paper"])
+@pytest.mark.parametrize("antithetic, include_mean", [(True, True), (False, False), (True, False)])
+def test_compiled_sampling_equals_the_numpy_definition(noise, antithetic, include_mean):
+    settings = {"first_input_noise": noise, "antithetic": antithetic, "include_mean": include_mean, "samples": 64}
+    fast = FourierMPPI(MPPIConfig(**settings), seed=9)
+    reference = FourierMPPI(MPPIConfig(backend="reference", **settings), seed=9)
+    mean = np.random.default_rng(2).normal(size=fast.mean.shape)
+    fast.mean, reference.mean = mean, mean.copy()
+    for _ in range(3):  # same draws from the same generator, the same samples
+        np.testing.assert_allclose(fast.sample(), reference.sample(), rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize(
+    "costs",
+    [
+        np.random.default_rng(4).exponential(5.0, 256) + 30.0,
+        np.r_[np.inf, np.nan, np.random.default_rng(5).normal(0.0, 100.0, 254)],
+        np.r_[np.full(255, np.inf), 7.0],
+        np.full(256, np.nan),
+    ],
+    ids=["spread", "some non-finite", "one finite", "none finite"],
+)
+@pytest.mark.parametrize("band", [(0.05, 0.2), None])
+def test_compiled_weighting_equals_the_numpy_definition(costs, band):
+    fast = FourierMPPI(MPPIConfig(ess_band=band, temperature=2.0), seed=1)
+    reference = FourierMPPI(MPPIConfig(ess_band=band, temperature=2.0, backend="reference"), seed=1)
+    z = np.random.default_rng(6).normal(size=(2, 9, 256))
+    (w_fast, mean_fast), (w_ref, mean_ref) = fast.average(costs.copy(), z), reference.average(costs.copy(), z)
+    assert w_fast.found == w_ref.found == np.isfinite(costs).any()
+    if w_ref.found:
+        np.testing.assert_allclose(w_fast.weights, w_ref.weights, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(mean_fast, mean_ref, rtol=1e-12, atol=1e-13)
+        assert w_fast.temperature == pytest.approx(w_ref.temperature, rel=1e-12)
+        assert w_fast.effective_samples == pytest.approx(w_ref.effective_samples, rel=1e-12)
+        assert w_fast.cost_min == w_ref.cost_min
+
+
+def test_compiled_start_and_shift_equal_the_fourier_module():
+    from agentic_mpc.controller import fourier, kernels
+
+    z = np.random.default_rng(7).normal(size=(2, 9))
+    shift = fourier.OneStepShift(4, 50)
+    shifted = np.empty_like(z)
+    starts = kernels.start_and_shift(z, shift.cos, shift.sin, shifted)
+    assert np.array_equal(starts, fourier.value_at_start(z))  # bitwise: the applied input is the reference's
+    assert np.array_equal(shifted, shift(z))

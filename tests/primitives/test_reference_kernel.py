@@ -1,0 +1,36 @@
+"""J1's compiled reference points equal their readable NumPy/shapely definition."""
+
+import numpy as np
+import pytest
+
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.primitives.reference_kernel import reference_points, reference_points_readable
+
+rng = np.random.default_rng(3)
+WAVY = LanePath(np.column_stack([np.linspace(0, 300, 151), 20 * np.sin(np.linspace(0, 300, 151) / 40)]))
+CIRCLE = LanePath(np.column_stack([50 * np.cos(np.linspace(0, 1.9 * np.pi, 200)), 50 * np.sin(np.linspace(0, 1.9 * np.pi, 200))]))
+STRAIGHT = LanePath.straight((-20.0, 0.0), (400.0, 0.0))
+
+
+@pytest.mark.parametrize("path", [WAVY, CIRCLE, STRAIGHT], ids=["wavy", "circle", "straight"])
+@pytest.mark.parametrize("accel", [3.0, 0.5, None])
+def test_kernel_equals_the_readable_definition(path, accel):
+    xy = path.coordinates
+    lo, hi = xy.min(axis=0) - 30.0, xy.max(axis=0) + 30.0  # beyond both ends too: clamped there
+    for _ in range(200):
+        x, y = rng.uniform(lo, hi)
+        v_now, v_ref = rng.uniform(0.0, 30.0, size=2)
+        horizon = int(rng.integers(2, 120))
+        fast = reference_points(path, x, y, v_now, v_ref, accel, 0.04, horizon)
+        readable = reference_points_readable(path, x, y, v_now, v_ref, accel, 0.04, horizon)
+        assert np.allclose(fast[0], readable[0], rtol=0, atol=1e-9)
+        assert np.allclose(fast[1], readable[1], rtol=0, atol=1e-12)
+
+
+def test_points_on_a_straight_lane_are_exact():
+    points, tangents = reference_points(STRAIGHT, 10.0, 1.0, 15.0, 15.0, 3.0, 0.04, 50)
+    assert np.allclose(points[:, 0], 10.0 + 0.6 * np.arange(1, 51)) and np.all(points[:, 1] == 0.0)
+    assert np.all(tangents == [1.0, 0.0])
+    # The end of the path is where the reference stops.
+    points, _ = reference_points(STRAIGHT, 399.0, 0.0, 30.0, 30.0, None, 0.04, 50)
+    assert np.all(points[:, 0] <= 400.0) and points[-1, 0] == 400.0
