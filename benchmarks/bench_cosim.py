@@ -11,13 +11,23 @@ Cases (each in a fresh process: libsumo runs one simulation per process):
 - ``curvy_traffic``: the curved road with the route file's background traffic after 90 s of warm-up;
 - ``curvy_traffic_sublane``: the same with the sublane model (0.4 m, what rescue lanes switch on).
 
-``sumo_step_*`` is SUMO's own step (``simulation.step`` through the bridge) inside each co-simulation step,
-timed separately: the co-simulation step minus it is our share (controller, observation, surroundings).
-
 A step is timed as a whole (``RunLoop.step``'s ``step_ms``: surroundings, controller, bicycle model,
-moveToXY, SUMO step, observation); ``solve_ms`` is the controller's part. The specification is J1 on the
-ego's lane at 15 m/s; SUMO and the controller share the seed. The first 50 steps (Numba cache load) are
-not counted. BLAS is pinned to one thread.
+moveToXY, SUMO step, observation); ``solve_ms`` is the controller's part. ``sumo_step_*`` is SUMO's own
+``libsumo.simulation.step`` inside each co-simulation step, timed separately at the same traffic.
+``rest_median_ms`` is the step without the controller, ``rest_no_sumo_median_ms`` the step without the
+controller and SUMO's own step: our share (issue 11 asks it to stay within 0.5 ms).
+
+``parts_median_ms`` times each part of a step separately (median over the timed steps; the parts' medians
+need not add up to the step's): ``surroundings`` (discs, leaders, road edges for the controller),
+``controller`` (``FourierMPPI.step``'s wall time), ``model`` (our bicycle model), ``sync`` (``moveToXY`` of the
+ego), ``sumo_step`` (SUMO's own step), ``step_bookkeeping`` (the bridge's step around it: our speed written
+back, collisions, departures), ``observe`` (reading the subscriptions and building the observation, our
+footprint collision check included) and ``other`` (the loop's own, the step minus the parts above). Outside
+the timed step, ``after_step``: the emergency-vehicle detector and the recorder. The part timers add about
+1 us each to the step.
+
+The specification is J1 on the ego's lane at 15 m/s; SUMO and the controller share the seed. The first 50
+steps (Numba cache load) are not counted. BLAS is pinned to one thread.
 """
 
 from __future__ import annotations
@@ -58,28 +68,25 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         raise ValueError(f"unknown case {case!r}; known: {CASES}")
     started = time.perf_counter()
     world = SumoWorld(config, seed=seed)
-    bridge = world.bridge
-    sumo_step_s: list[float] = []
-    sumo_step = bridge.step
-
-    def timed_step() -> None:  # SUMO's own step, separately (an instance attribute shadows the method)
-        t0 = time.perf_counter()
-        sumo_step()
-        sumo_step_s.append(time.perf_counter() - t0)
-
-    bridge.step = timed_step
     role, path = world.lane(config.ego.lane)
     specification = Specification.of(PathTracking(path=path, lane=role, v_ref_mps=15.0))
     with RunLoop(world, specification, LoopSettings(duration_s=float("inf"), stop_at_goal=False), seed=seed) as loop:
         setup_s = time.perf_counter() - started
+        parts = _time_parts(world, loop)
         for _ in range(warmup_steps + steps):
             loop.step()
         records = loop.recorder.trajectory_rows[warmup_steps:]
         ego_collisions = len(loop.recorder.metrics.ego_collision_pairs)
         total_vehicles = world.bridge.vehicle_count() - 1
-    sumo_ms = 1e3 * np.array(sumo_step_s[-len(records):])
+    n = len(records)
+    part_ms = {name: 1e3 * np.array(times[-n:]) for name, times in parts.items()}
+    part_ms["step_bookkeeping"] = part_ms.pop("bridge_step") - part_ms["sumo_step"]
+    sumo_ms = part_ms["sumo_step"]
     step_ms = np.array([r["step_ms"] for r in records])
     solve_ms = np.array([r["solve_ms"] for r in records])
+    in_step = ("surroundings", "controller", "model", "sync", "sumo_step", "step_bookkeeping", "observe")
+    part_ms["other"] = step_ms - sum(part_ms[name] for name in in_step)
+    part_ms["after_step"] = part_ms.pop("detector") + part_ms.pop("recorder")
     in_range = np.array([r["vehicles_in_range"] for r in records])
     discs = np.array([r["discs"] for r in records])
     return {
@@ -97,9 +104,46 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         "sumo_step_p90_ms": round(float(np.percentile(sumo_ms, 90)), 4),
         "controller_median_ms": round(float(np.median(solve_ms)), 4),
         "rest_median_ms": round(float(np.median(step_ms - solve_ms)), 4),
+        "rest_no_sumo_median_ms": round(float(np.median(step_ms - solve_ms - sumo_ms)), 4),
+        "rest_no_sumo_p90_ms": round(float(np.percentile(step_ms - solve_ms - sumo_ms, 90)), 4),
+        "parts_median_ms": {name: round(float(np.median(ms)), 4) for name, ms in part_ms.items()},
         "setup_s": round(setup_s, 3),
         "ego_collisions": ego_collisions,
     }
+
+
+def _time_parts(world, loop) -> dict[str, list[float]]:
+    """Wrap each part of a step in a timer (instance attributes shadow the methods; the bicycle model and
+    SUMO's own step are module attributes); returns the lists of seconds they fill, one entry per call."""
+    import agentic_mpc.sumo.bridge as bridge_module
+    import agentic_mpc.vehicle as vehicle_module
+
+    times: dict[str, list[float]] = {}
+
+    def timed(name, function):
+        spent = times.setdefault(name, [])
+
+        def wrapper(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                spent.append(time.perf_counter() - t0)
+
+        return wrapper
+
+    bridge = world.bridge
+    world.surroundings = timed("surroundings", world.surroundings)
+    loop.controller.step = timed("controller", loop.controller.step)
+    vehicle_module.step = timed("model", vehicle_module.step)
+    bridge.move_external = timed("sync", bridge.move_external)
+    bridge.step = timed("bridge_step", bridge.step)
+    simulation = bridge_module.libsumo.simulation
+    simulation.step = staticmethod(timed("sumo_step", simulation.step))
+    world._observe = timed("observe", world._observe)
+    loop.detector.update = timed("detector", loop.detector.update)
+    loop.recorder.step = timed("recorder", loop.recorder.step)
+    return times
 
 
 def main(argv: list[str] | None = None) -> int:

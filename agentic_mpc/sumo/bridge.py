@@ -53,15 +53,12 @@ __all__ = [
 
 _LIBSUMO_ERRORS = (libsumo.TraCIException, libsumo.FatalTraCIError)
 
-_STATE_VARIABLES = (
-    tc.VAR_POSITION,
-    tc.VAR_ANGLE,
-    tc.VAR_SPEED,
-    tc.VAR_LANE_ID,
-    tc.VAR_LANE_INDEX,
-    tc.VAR_LANEPOSITION,
+# Read for every vehicle in range every step: plain ints (not ``tc.`` lookups) for the per-vehicle conversion.
+_POSITION, _ANGLE, _SPEED, _LANE_ID, _LANE_INDEX, _LANE_POS, _LANE_POS_LAT = _STATE_VARIABLES = (
+    tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANE_ID, tc.VAR_LANE_INDEX, tc.VAR_LANEPOSITION,
     tc.VAR_LANEPOSITION_LAT,
 )
+_new_state = tuple.__new__  # VehicleState without the NamedTuple's keyword-handling __new__ (half the cost)
 
 _active_lock = threading.Lock()
 _active: SumoBridge | None = None
@@ -204,18 +201,22 @@ class SumoBridge:
         try:
             libsumo.simulation.step()
             # Subscription results were taken inside the step: they still show SUMO's own speed, so the
-            # override is remembered and applied to what the readers below return.
+            # override is remembered and applied to what the readers below return. (Plain loops: right after
+            # SUMO's step every line runs with cold caches, and comprehensions cost a function call each.)
+            overrides = {}
             for vehicle_id, (speed, accel) in self._pending_speeds.items():
                 libsumo.vehicle.setPreviousSpeed(vehicle_id, speed, accel)
-            self._speed_overrides = {vehicle_id: speed for vehicle_id, (speed, _) in self._pending_speeds.items()}
+                overrides[vehicle_id] = speed
+            self._speed_overrides = overrides
             self._pending_speeds.clear()
+            collisions = libsumo.simulation.getCollisions()
             self.collisions = tuple(
                 CollisionRecord(
                     c.collider, c.victim, c.colliderType, c.victimType, c.colliderSpeed, c.victimSpeed,
                     c.type, c.lane, c.pos,
                 )
-                for c in libsumo.simulation.getCollisions()
-            )
+                for c in collisions
+            ) if collisions else ()
             self.departed = tuple(libsumo.simulation.getDepartedIDList())
             self.arrived = tuple(libsumo.simulation.getArrivedIDList())
             for vehicle_id in self.departed:
@@ -426,20 +427,19 @@ class SumoBridge:
         return cached
 
     def _state(self, vehicle_id: str, values: dict) -> VehicleState:
-        x_front, y_front = values[tc.VAR_POSITION]
+        x_front, y_front = values[_POSITION]
         shift = self._mirror_shift.get(vehicle_id)
         if shift is not None:
             x_front, y_front = x_front + shift[0], y_front + shift[1]
-        x, y, phi = front_to_centre(x_front, y_front, values[tc.VAR_ANGLE], self.info(vehicle_id).length_m)
-        lane_id = values[tc.VAR_LANE_ID]
-        speed = self._speed_overrides.get(vehicle_id, values[tc.VAR_SPEED])
+        info = self._info.get(vehicle_id) or self.info(vehicle_id)
+        x, y, phi = front_to_centre(x_front, y_front, values[_ANGLE], info.length_m)
+        lane_id = values[_LANE_ID]
+        speed = self._speed_overrides.get(vehicle_id, values[_SPEED])
         if not lane_id:  # off every lane: SUMO reports INVALID_DOUBLE/INT for the lane quantities
-            return VehicleState(vehicle_id, x, y, phi, speed, "", -1, math.nan, math.nan)
-        lateral = values[tc.VAR_LANEPOSITION_LAT]
-        return VehicleState(
-            vehicle_id, x, y, phi, speed, lane_id, values[tc.VAR_LANE_INDEX],
-            values[tc.VAR_LANEPOSITION], -lateral if self.lefthand else lateral,
-        )
+            return _new_state(VehicleState, (vehicle_id, x, y, phi, speed, "", -1, math.nan, math.nan))
+        lateral = values[_LANE_POS_LAT]
+        return _new_state(VehicleState, (vehicle_id, x, y, phi, speed, lane_id, values[_LANE_INDEX],
+                                         values[_LANE_POS], -lateral if self.lefthand else lateral))
 
     def vehicle_state(self, vehicle_id: str) -> VehicleState:
         """One vehicle's state by individual getters (for anything not subscribed)."""
@@ -447,13 +447,13 @@ class SumoBridge:
         v = libsumo.vehicle
         try:
             values = {
-                tc.VAR_POSITION: v.getPosition(vehicle_id),
-                tc.VAR_ANGLE: v.getAngle(vehicle_id),
-                tc.VAR_SPEED: v.getSpeed(vehicle_id),
-                tc.VAR_LANE_ID: v.getLaneID(vehicle_id),
-                tc.VAR_LANE_INDEX: v.getLaneIndex(vehicle_id),
-                tc.VAR_LANEPOSITION: v.getLanePosition(vehicle_id),
-                tc.VAR_LANEPOSITION_LAT: v.getLateralLanePosition(vehicle_id),
+                _POSITION: v.getPosition(vehicle_id),
+                _ANGLE: v.getAngle(vehicle_id),
+                _SPEED: v.getSpeed(vehicle_id),
+                _LANE_ID: v.getLaneID(vehicle_id),
+                _LANE_INDEX: v.getLaneIndex(vehicle_id),
+                _LANE_POS: v.getLanePosition(vehicle_id),
+                _LANE_POS_LAT: v.getLateralLanePosition(vehicle_id),
             }
         except _LIBSUMO_ERRORS as error:
             raise SumoError(
@@ -477,14 +477,14 @@ class SumoBridge:
         """
         if self._context_ego is None:
             raise SumoError("call subscribe_around first")
-        results = libsumo.vehicle.getContextSubscriptionResults(self._context_ego)
+        ego_id, state = self._context_ego, self._state
         ego = None
         others = []
-        for vehicle_id, values in results.items():
-            if vehicle_id == self._context_ego:
-                ego = self._state(vehicle_id, values)
+        for vehicle_id, values in libsumo.vehicle.getContextSubscriptionResults(ego_id).items():
+            if vehicle_id == ego_id:
+                ego = state(vehicle_id, values)
             else:
-                others.append(self._state(vehicle_id, values))
+                others.append(state(vehicle_id, values))
         if ego is None and self._context_ego in libsumo.vehicle.getIDList():
             ego = self.vehicle_state(self._context_ego)  # off every lane, SUMO leaves it out of its own context
         return ego, others

@@ -1,4 +1,5 @@
-"""Where on a lane full of traffic the ego can enter: the free gaps nearest to the requested spot (pure).
+"""Where on a lane full of traffic the ego can enter: the free gaps nearest to the requested spot
+(:func:`free_spots`, pure), and the retries at them (:func:`insert_at_free_gap`, through the bridge).
 
 In dense traffic after a warm-up the requested start can stay occupied for longer than any wait (a run
 failed: "SUMO did not insert 'ego' ... within 250 steps"). SUMO inserts a vehicle only where it and its
@@ -8,7 +9,13 @@ distance on each side (Krauss at equal speeds needs about speed x tau, tau = 1 s
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
+from agentic_mpc.sumo.records import SumoError
+
+if TYPE_CHECKING:
+    from agentic_mpc.sumo.bridge import SumoBridge
 
 INSERTION_HEADWAY_S = 1.5
 """Distance kept to the leader and asked of the follower, in seconds at their speed (SUMO's tau 1 s + margin:
@@ -17,6 +24,8 @@ BRAKING_MPS2 = 4.0
 """Assumed braking for the difference of braking distances between a faster and a slower vehicle."""
 MARGIN_M = 2.0
 """The spot keeps this far inside the free part of a gap (traffic moves while SUMO inserts)."""
+INSERT_ATTEMPTS = 20
+"""Free gaps tried (nearest first) when the ego's requested spot stays occupied."""
 
 
 def free_spots(
@@ -52,3 +61,43 @@ def free_spots(
             brake_m = max(0.0, speed**2 - speed_mps**2) / (2.0 * BRAKING_MPS2)
             low_m = max(low_m, pos + min_gap + headway_s * speed + brake_m + ego_length_m + MARGIN_M)
     return sorted(spots, key=lambda p: abs(p - requested_pos_m))
+
+
+def insert_at_free_gap(
+    bridge: SumoBridge,
+    vehicle_id: str,
+    route_id: str,
+    type_id: str,
+    *,
+    lane_index: int,
+    lane_id: str,
+    lane_length_m: float,
+    requested_pos_m: float,
+    length_m: float,
+    min_gap_m: float,
+    speed_mps: float,
+    fits: Callable[[float], bool],
+    wait_steps: int,
+) -> float:
+    """Insert the externally driven ``vehicle_id`` at the free gap of ``lane_id`` nearest to the requested
+    spot, after SUMO could not insert it there; returns the front-bumper position it got in at.
+
+    The gaps are read anew before each attempt (traffic moves while SUMO tries); a spot within 2 m of one
+    tried before, or where the vehicle would not be on the road (``fits``), is skipped; each attempt waits
+    ``wait_steps`` steps. Raises :class:`SumoError` when no gap is left or :data:`INSERT_ATTEMPTS` failed.
+    """
+    tried: list[float] = []
+    for _ in range(INSERT_ATTEMPTS):
+        spots = free_spots(bridge.lane_vehicles(lane_id), lane_length_m, requested_pos_m, length_m, min_gap_m, speed_mps)
+        pos = next((p for p in spots if all(abs(p - t) > 2.0 for t in tried) and fits(p)), None)
+        if pos is None:
+            break
+        tried.append(pos)
+        bridge.add_external_vehicle(vehicle_id, route_id, type_id, lane_index=lane_index, pos_m=pos,
+                                    speed_mps=speed_mps, wait=False)
+        if bridge.wait_until_inserted(vehicle_id, wait_steps, withdraw=True) is not None:
+            return pos
+    raise SumoError(
+        f"SUMO did not insert {vehicle_id!r} on lane {lane_id} at {requested_pos_m} m nor at the free gaps"
+        f" tried at {[round(t, 1) for t in tried]} m (t={bridge.time_s:.2f} s)"
+    )

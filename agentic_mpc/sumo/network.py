@@ -35,12 +35,13 @@ class NetworkError(ValueError):
 class Polyline:
     """Arc-length tables of a polyline for the per-step hot path.
 
-    Vectorised evaluation (:meth:`at`) and a local projection in plain Python (:meth:`locate`): shapely's
+    Vectorised evaluation (:meth:`at`) and a local projection in plain Python (:meth:`locate`; the per-step path
+    uses their compiled twins in :mod:`agentic_mpc.sumo.kernels`, which give the same results): shapely's
     projection walks the whole line (about 20-30 us on a 1.6 km road with 2 m vertices); starting from a
     good guess (SUMO's lane position) a few segments suffice.
     """
 
-    __slots__ = ("xy", "s", "tangents", "length_m", "_s", "_x", "_y", "_tx", "_ty")
+    __slots__ = ("xy", "s", "tangents", "length_m", "_s", "_x", "_y", "_tx", "_ty", "inner_s")
 
     def __init__(self, path: LanePath) -> None:
         xy = np.asarray(path.coordinates, dtype=np.float64)
@@ -53,6 +54,9 @@ class Polyline:
         self._s = self.s.tolist()
         self._x, self._y = xy[:, 0].tolist(), xy[:, 1].tolist()
         self._tx, self._ty = self.tangents[:, 0].tolist(), self.tangents[:, 1].tolist()
+        # The inner vertices, for the compiled at() of agentic_mpc.sumo.kernels: for 0 <= s <= length the count
+        # of them <= s is the segment index, already clamped to 0..n-2 (s[0] = 0 is below every such s).
+        self.inner_s = np.ascontiguousarray(self.s[1:-1])
 
     def _segment(self, s_m: float) -> int:
         return min(max(bisect.bisect_right(self._s, s_m) - 1, 0), len(self._s) - 2)

@@ -10,6 +10,7 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 
 from agentic_mpc.sumo.bridge import CollisionRecord, VehicleInfo, VehicleState
+from agentic_mpc.sumo.kernels import locate
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.world.collisions import boxes_overlap
 from agentic_mpc.world.observation import (
@@ -41,6 +42,7 @@ class ObservationBuilder:
         self._obstacle_poses = obstacle_poses
         self._position_in_order = {lane: i for i, lane in enumerate(road.left_to_right)}
         self._lane_ids = {span.lane_id for span in road.spans.values()}
+        self._known: dict[str, tuple[VehicleInfo, float, float]] = {}  # see _sizes
         # Per SUMO lane of the road, everything the per-vehicle loop needs, in one dict lookup:
         # (road lane index, start on its path, geometry factor, role, edge id, position left to right).
         self._lanes = {
@@ -52,6 +54,11 @@ class ObservationBuilder:
         }
 
     # --- helpers -------------------------------------------------------------------------------------
+    def _sizes(self, vehicle_id: str) -> tuple[VehicleInfo, float, float]:
+        """(info, half length, diagonal) of a vehicle: they do not change while it drives."""
+        info = self.info(vehicle_id)
+        return info, 0.5 * info.length_m, math.hypot(info.length_m, info.width_m)
+
     def _edge(self, lane_id: str) -> str:
         return lane_id.rsplit("_", 1)[0] if lane_id else ""
 
@@ -91,8 +98,8 @@ class ObservationBuilder:
         if ego.lane_id in self._lane_ids:
             index, front_s = road.lane_s(ego.lane_id, ego.lane_pos_m)
             lane_guess = front_s - 0.5 * length_m
-            road_s, _ = road.reference_table.locate(ego.x_m, ego.y_m, road.lane_to_road_s(index, lane_guess))
-            _, lateral = road.lane_tables[index].locate(ego.x_m, ego.y_m, lane_guess)
+            road_s, _ = locate(road.reference_table, ego.x_m, ego.y_m, road.lane_to_road_s(index, lane_guess))
+            _, lateral = locate(road.lane_tables[index], ego.x_m, ego.y_m, lane_guess)
             return road_s, lateral
         return float(road.road_s(ego.x_m, ego.y_m)[0]), float(road.lateral_from_reference(ego.x_m, ego.y_m)[0])
 
@@ -116,45 +123,53 @@ class ObservationBuilder:
             ego_info.length_m, ego_info.width_m,
         )
         ego_half = 0.5 * ego_info.length_m
+        # The first test of our footprint check (boxes_overlap's): the centres farther apart than half the
+        # two diagonals cannot touch. Done here, in the loop, so that only the near few get the full test.
+        ego_diagonal, ego_x, ego_y = math.hypot(ego_info.length_m, ego_info.width_m), ego.x_m, ego.y_m
 
         traffic: list[VehicleObservation] = []
+        near: list[VehicleObservation] = []
         obstacles: dict[str, ObstacleObservation] = {}
         # The hot loop (every vehicle in range, every step): locals and one lane lookup per vehicle.
-        lanes, info_of, obstacle_ids = self._lanes, self.info, self.obstacle_ids
+        lanes, known, obstacle_ids = self._lanes, self._known, self.obstacle_ids
         to_road_s = road.lane_to_road_s
         ego_order = lanes[ego.lane_id][5] if on_road else None
         cos, sin = math.cos, math.sin
         for state in others:
-            info = info_of(state.id)
-            half = 0.5 * info.length_m
-            lane = lanes.get(state.lane_id)
+            vehicle_id, x, y, heading, speed, lane_id, lane_index, lane_pos, lateral_offset = state
+            sizes = known.get(vehicle_id)
+            if sizes is None:
+                sizes = known[vehicle_id] = self._sizes(vehicle_id)
+            info, half, diagonal = sizes
+            lane = lanes.get(lane_id)
             if lane is None:  # off the road (or on another road): project the position
                 s, lane_s, role, edge, relative = self._road_s(state, info.length_m)[0], None, "", \
-                    self._edge(state.lane_id), None
+                    self._edge(lane_id), None
             else:
                 index, start, factor, role, edge, order = lane
-                lane_s = start + state.lane_pos_m * factor - half
+                lane_s = start + lane_pos * factor - half
                 s = to_road_s(index, lane_s)
                 relative = None if ego_order is None else ego_order - order
             offset = s - ego_s
             gap = (offset if offset > 0.0 else -offset) - half - ego_half
             relation = "alongside" if gap < 0.0 else ("ahead" if offset > 0.0 else "behind")
-            if state.id in obstacle_ids:
-                obstacles[state.id] = ObstacleObservation(
-                    state.id, info.type_id, state.x_m, state.y_m, state.heading_rad, info.length_m, info.width_m,
-                    state.lane_id, state.lane_index, role, s, offset, gap, relation, relative,
+            if vehicle_id in obstacle_ids:
+                obstacles[vehicle_id] = ObstacleObservation(
+                    vehicle_id, info.type_id, x, y, heading, info.length_m, info.width_m,
+                    lane_id, lane_index, role, s, offset, gap, relation, relative,
                 )
                 continue
-            speed, heading = state.speed_mps, state.heading_rad
-            traffic.append(
-                VehicleObservation(
-                    state.id, info.type_id, info.vclass, state.x_m, state.y_m, heading, speed,
-                    speed * cos(heading), speed * sin(heading), state.lane_id, state.lane_index, role, edge,
-                    info.length_m, info.width_m, s, offset, gap, relation, relative, lane_s, state.lateral_offset_m,
-                )
+            vehicle = VehicleObservation(
+                vehicle_id, info.type_id, info.vclass, x, y, heading, speed, speed * cos(heading),
+                speed * sin(heading), lane_id, lane_index, role, edge, info.length_m, info.width_m, s, offset, gap,
+                relation, relative, lane_s, lateral_offset,
             )
+            traffic.append(vehicle)
+            reach = 0.5 * (ego_diagonal + diagonal)
+            if not (ego_x - x) ** 2 + (ego_y - y) ** 2 > reach * reach:
+                near.append(vehicle)
         # Obstacles beyond sensing range are still known (they do not move): the agent may plan for them.
-        if self._obstacle_poses is not None:
+        if self._obstacle_poses is not None and self.obstacle_ids:
             for obstacle_id in self.obstacle_ids - obstacles.keys():
                 state = self._obstacle_poses(obstacle_id)
                 if state is None:
@@ -170,9 +185,9 @@ class ObservationBuilder:
                     self._relative_lane(ego_lane, state.lane_id, state.lane_index),
                 )
 
-        ego_along = self._along_speed(ego, ego_s)
         emergency_obs = []
-        by_id = {v.id: v for v in traffic}
+        by_id = {v.id: v for v in traffic} if emergency else {}
+        ego_along = self._along_speed(ego, ego_s) if emergency else 0.0
         for state in emergency:
             vehicle = by_id.get(state.id)
             if vehicle is None:
@@ -211,8 +226,8 @@ class ObservationBuilder:
         # Our own footprint check against every vehicle and obstacle: SUMO misses the ego's part in the next
         # lane (it reports only once the ego's centre is across the line).
         reported = {frozenset((c.collider, c.victim)) for c in collision_obs}
-        for other in (*traffic, *obstacles.values()):
-            if frozenset((self.ego_id, other.id)) in reported:
+        for other in (*near, *obstacles.values()):  # the rest of the traffic is out of reach (above)
+            if reported and frozenset((self.ego_id, other.id)) in reported:
                 continue
             if boxes_overlap(ego_obs, other):
                 speed = getattr(other, "speed_mps", 0.0)

@@ -49,6 +49,7 @@ import numpy as np
 
 from agentic_mpc.primitives import Circle, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
+from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.world.observation import Observation, ObstacleObservation, VehicleObservation
 
@@ -129,7 +130,6 @@ class SurroundingsBuilder:
         self.config = config
         self._steps = dt_s * np.arange(1, horizon + 1)  # k = 1..H: the rollouts' states
         self._horizon_s = horizon * dt_s
-        self._unit_left = np.array([-1.0, 1.0])
         # Lateral bounds (left, right) of each lane from the road's centre line (lanes run parallel to it).
         middle = 0.5 * road.reference.length_m
         bounds = []
@@ -158,22 +158,28 @@ class SurroundingsBuilder:
 
     def relevant(self, vehicle: VehicleObservation, ego_speed_mps: float) -> bool:
         """Whether the vehicle can come near the ego within the horizon (1-D test along the road)."""
+        return self._relevance(vehicle, ego_speed_mps) is not None
+
+    def _relevance(self, vehicle: VehicleObservation, ego_speed_mps: float) -> tuple[DiscCover, float] | None:
+        """None if not :meth:`relevant`, else (its cover, how far a leader's cover reaches back; 0 otherwise)."""
         c = self.config
         offset = vehicle.offset_m
         if offset > c.range_ahead_m or offset < -c.range_behind_m:
-            return False
+            return None
         if c.ignore_followers_in_lane and vehicle.relation == "behind" and vehicle.relative_lane == 0:
-            return False
+            return None
         # Gap centre-to-centre over t in [0, T] at constant speeds: offset + dv * t. Relevant if it gets within
         # reach: the covered half length plus slack for the ego's own speed changes.
         cover = self._cover(vehicle)
         reach = cover.offsets_m[-1] + cover.radius_m + c.longitudinal_slack_m
+        headway = 0.0
         if self._is_leader(vehicle):
-            reach += self._headway_m(vehicle, ego_speed_mps)
+            headway = self._headway_m(vehicle, ego_speed_mps)
+            reach += headway
         end = offset + (vehicle.speed_mps - ego_speed_mps) * self._horizon_s
-        if (offset > 0.0) != (end > 0.0):
-            return True
-        return min(abs(offset), abs(end)) <= reach
+        if (offset > 0.0) != (end > 0.0) or min(abs(offset), abs(end)) <= reach:
+            return cover, headway
+        return None
 
     @staticmethod
     def _is_leader(vehicle: VehicleObservation) -> bool:
@@ -200,47 +206,52 @@ class SurroundingsBuilder:
         """Discs of the relevant vehicles, predicted at constant speed along their lanes."""
         self._enterable_lanes = self.enterable_lanes(observation, target_lane)
         ego_speed = observation.ego.speed_mps
-        per_lane: dict[int, list[VehicleObservation]] = {}
-        off_road: list[VehicleObservation] = []
+        per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]] = {}
+        off_road: list[tuple[VehicleObservation, DiscCover, float]] = []
         for vehicle in observation.traffic:
-            if not self.relevant(vehicle, ego_speed):
+            relevance = self._relevance(vehicle, ego_speed)
+            if relevance is None:
                 continue
             if vehicle.lane_s_m is None:
-                off_road.append(vehicle)
+                off_road.append((vehicle, *relevance))
             else:
-                per_lane.setdefault(vehicle.lane_index, []).append(vehicle)
+                per_lane.setdefault(vehicle.lane_index, []).append((vehicle, *relevance))
         discs: list[MovingDisc] = []
-        h = self.horizon
-        for index, vehicles in per_lane.items():
-            # One table lookup for all vehicles of a lane: the per-call overhead dominates at this size.
-            s = np.concatenate([v.lane_s_m + v.speed_mps * self._steps for v in vehicles])
-            points, tangents = self.road.lane_tables[index].at(s)
-            for n, vehicle in enumerate(vehicles):
-                centres = points[n * h:(n + 1) * h]
-                heading = tangents[n * h:(n + 1) * h]
-                if vehicle.lateral_offset_m:
-                    centres = centres + vehicle.lateral_offset_m * np.stack([-heading[:, 1], heading[:, 0]], axis=1)
-                self._add_discs(discs, vehicle, centres, heading, ego_speed)
-        for vehicle in off_road:
+        if per_lane:
+            self._lane_discs(discs, per_lane)
+        for vehicle, cover, headway in off_road:
             heading = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
             centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * heading
-            self._add_discs(discs, vehicle, centres, np.broadcast_to(heading, centres.shape), ego_speed)
+            heading = np.broadcast_to(heading, centres.shape)
+            for offset in self._offsets(vehicle, cover, headway):
+                discs.append(MovingDisc(centres + offset * heading if offset else np.ascontiguousarray(centres),
+                                        cover.radius_m))
         return tuple(discs)
 
-    def _add_discs(self, discs: list[MovingDisc], vehicle: VehicleObservation, centres: np.ndarray,
-                   heading: np.ndarray, ego_speed_mps: float) -> None:
-        cover = self._cover(vehicle)
-        offsets = list(cover.offsets_m)
-        if self._is_leader(vehicle) and cover.spacing_m > 0.0:
+    def _lane_discs(self, discs: list[MovingDisc],
+                    per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]]) -> None:
+        """The discs of the vehicles on lanes: one compiled call per lane (see :mod:`agentic_mpc.sumo.kernels`)
+        for all its discs, one row each; stage k of a disc is the lane point at lane_s + v * t_k, plus the
+        vehicle's lateral offset along the lane's normal, plus the disc's offset along the lane's tangent."""
+        for index, lane_items in per_lane.items():
+            rows: list[tuple[float, float, float, float]] = []  # (speed, lane_s, lateral offset, offset)
+            radii: list[float] = []
+            for vehicle, cover, headway in lane_items:
+                for offset in self._offsets(vehicle, cover, headway):
+                    rows.append((vehicle.speed_mps, vehicle.lane_s_m, vehicle.lateral_offset_m, offset))
+                    radii.append(cover.radius_m)
+            centres = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
+            discs.extend(map(MovingDisc, centres, radii))
+
+    def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:
+        """The discs' offsets along the vehicle's heading; a leader's row extended backwards by ``headway``."""
+        if cover.spacing_m > 0.0 and self._is_leader(vehicle):
             # Extend the row backwards by the following distance, at the spacing that keeps the sides covered.
-            rear = offsets[0]
-            headway = self._headway_m(vehicle, ego_speed_mps)
+            rear = cover.offsets_m[0]
             extra = math.ceil(headway / cover.spacing_m)
             step = headway / extra if extra else 0.0
-            offsets = [rear - step * n for n in range(extra, 0, -1)] + offsets
-        for offset in offsets:
-            discs.append(MovingDisc(centres + offset * heading if offset else np.ascontiguousarray(centres),
-                                    cover.radius_m))
+            return [rear - step * n for n in range(extra, 0, -1)] + list(cover.offsets_m)
+        return cover.offsets_m
 
     def leaders(self, observation: Observation, target_lane: int | None) -> tuple[Leader, ...]:
         """The vehicles ahead in the ego's path for J0's time gap (see the module docstring), nearest first."""
@@ -272,16 +283,16 @@ class SurroundingsBuilder:
         candidates.sort(key=lambda item: item[0])
         in_lane = next((n for n, (_, v) in enumerate(candidates) if v.lane_index == path_lane), len(candidates) - 1)
         chosen = [v for _, v in candidates[: min(in_lane + 1, MAX_LEADERS)]]
-        s_ego = table.locate(ego.x_m, ego.y_m, ego.road_s_m)[0]
+        s_ego = locate(table, ego.x_m, ego.y_m, ego.road_s_m)[0]
         ego_s = s_ego + max(ego.speed_mps, 0.0) * self._steps
         h = self.horizon
         arcs = []
         for vehicle in chosen:
             s_vehicle = (vehicle.lane_s_m if vehicle.lane_index == path_lane
-                         else table.locate(vehicle.x_m, vehicle.y_m, vehicle.lane_s_m)[0])
+                         else locate(table, vehicle.x_m, vehicle.y_m, vehicle.lane_s_m)[0])
             contact = s_vehicle - 0.5 * (vehicle.length_m + self.ego_length_m) + vehicle.speed_mps * self._steps
             arcs += [contact, 0.5 * (contact + ego_s)]  # the tangent halfway is parallel to the chord on an arc
-        points, tangents = table.at(np.concatenate(arcs))
+        points, tangents = points_at(table, np.concatenate(arcs))
         return tuple(
             Leader(points[2 * n * h:(2 * n + 1) * h], np.ascontiguousarray(tangents[(2 * n + 1) * h:(2 * n + 2) * h]))
             for n in range(len(chosen))
@@ -294,7 +305,7 @@ class SurroundingsBuilder:
         if target_lane is None:
             return half, -half
         ego = observation.ego
-        _, lateral = self.road.reference_table.locate(ego.x_m, ego.y_m, ego.road_s_m)
+        _, lateral = locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)
         reach = 0.5 * self.ego_width_m
         left, right = self._lane_bounds[target_lane]
         for lane_left, lane_right in self._lane_bounds:
@@ -309,10 +320,9 @@ class SurroundingsBuilder:
         The edges are the road's centre line shifted sideways (by half the road width, or to ``bounds``),
         sampled at the ego's along-road position advancing at its current speed.
         """
-        points, tangents = self.road.reference_table.at(road_s_m + max(speed_mps, 0.0) * self._steps)
-        normal = tangents[:, ::-1] * self._unit_left  # (-ty, tx): towards the left
         left, right = bounds if bounds is not None else (0.5 * self.road.width_m, -0.5 * self.road.width_m)
-        return TrackingReference(points + left * normal, tangents), TrackingReference(points + right * normal, tangents)
+        lines = side_lines(self.road.reference_table, road_s_m, max(speed_mps, 0.0), self._steps, left, right)
+        return TrackingReference(lines[0], lines[2]), TrackingReference(lines[1], lines[2])
 
     def build(self, observation: Observation, ego_state: np.ndarray, target_lane: int | None = None) -> Surroundings:
         """Surroundings for a control step from ``ego_state`` = [x, y, phi, v] (our model's state at the

