@@ -12,6 +12,7 @@ vectorised over trailing axes so the MPPI reference path can roll out all sample
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,6 +104,28 @@ def step(
             np.maximum(0.0, v + dt * (params.w_a * throttle + params.w_b * brake + params.w_v * v)),
         ]
     )
+
+
+def step_plant(
+    state: NDArray[np.float64], delta: float, throttle: float, brake: float, params: VehicleParams = PAPER_PARAMS
+) -> NDArray[np.float64]:
+    """:func:`step` for one vehicle, in scalar arithmetic: what the worlds call every 40 ms on the ego.
+
+    The same formulas in the same order; on 0-d arrays NumPy spends about 0.1 ms per step on the project
+    machine in call overhead, this about 5 us (tests/test_vehicle.py compares the two).
+    """
+    x, y, phi, v = state.tolist() if isinstance(state, np.ndarray) else (float(value) for value in state)
+    delta = min(max(float(delta), -STEER_LIMIT), STEER_LIMIT)
+    gamma = math.atan(params.slip_gain * math.tan(params.r_delta * delta))
+    throttle = min(max(float(throttle), 0.0), 1.0)
+    brake = min(max(float(brake), 0.0), 1.0)
+    dt = params.dt_s
+    return np.array([
+        x + dt * v * math.cos(phi + gamma),
+        y + dt * v * math.sin(phi + gamma),
+        phi + dt * v / params.l_r_m * math.sin(gamma),
+        max(0.0, v + dt * (params.w_a * throttle + params.w_b * brake + params.w_v * v)),
+    ])
 
 
 def throttle_for_steady_speed(v_mps: float, params: VehicleParams = PAPER_PARAMS) -> float:

@@ -5,7 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams, slip_angle, split_throttle_brake, step, throttle_for_steady_speed
+from agentic_mpc.vehicle import (
+    PAPER_PARAMS,
+    VehicleParams,
+    slip_angle,
+    split_throttle_brake,
+    step,
+    step_plant,
+    throttle_for_steady_speed,
+)
 
 
 def hand_step(x, y, phi, v, delta, a, b):
@@ -70,3 +78,14 @@ def test_invalid_parameters_are_named():
         VehicleParams(dt_s=0.0)
     with pytest.raises(ValueError, match="w_a"):
         VehicleParams(w_a=float("nan"))
+
+
+def test_the_plants_scalar_step_equals_the_numpy_model():
+    rng = np.random.default_rng(8)
+    for _ in range(500):
+        state = rng.uniform([-1e3, -1e3, -7.0, 0.0], [1e3, 1e3, 7.0, 40.0])
+        delta, ab = rng.uniform(-1.5, 1.5, size=2)  # beyond the actuator limits too
+        throttle, brake = max(ab, 0.0), max(-ab, 0.0) * 1.3
+        expected = step(state, delta, throttle, brake)
+        np.testing.assert_allclose(step_plant(state, delta, throttle, brake), expected, rtol=1e-14, atol=1e-12)
+    assert step_plant(np.array([0.0, 0.0, 0.0, 0.1]), 0.0, 0.0, 1.0)[3] == 0.0  # never backwards

@@ -145,7 +145,7 @@ class PlainWorld:
         return (Leader(np.stack([contact, np.full(horizon, self.road.lane_y_m(role))], axis=1), tangents),)
 
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
-        self._state = vehicle.step(self._state, delta, throttle, brake, self.params)
+        self._state = vehicle.step_plant(self._state, delta, throttle, brake, self.params)
         self._move_traffic(self.time_s)
         self._step += 1
         self._observation = self._observe()
