@@ -222,6 +222,27 @@ def test_yielding_to_emergency_vehicles(message, expected):
 
 
 @pytest.mark.parametrize(
+    ("message", "expected"),
+    [
+        ("An ambulance is coming behind us. We'd better let them pass, but don't stop.", ("run_left_lane", {"v_ref": 4})),
+        ("Ambulance behind us: move over without stopping.", ("run_left_lane", {"v_ref": 4})),
+        ("Emergency vehicle coming, pull over to the right but keep rolling", ("run_right_lane", {"v_ref": 4})),
+        ("A fire engine is coming, make way and keep moving.", ("run_left_lane", {"v_ref": 4})),
+        ("An ambulance is behind us. Make way at 2 m/s, no need to stop.", ("run_left_lane", {"v_ref": 2})),
+    ],
+)
+def test_yielding_without_stopping_keeps_a_crawl(message, expected):
+    # A car stopped beside an emergency vehicle's path makes SUMO slow it to 20 km/h; moving over at a crawl
+    # does not. A stated speed still wins.
+    assert calls(message) == [expected]
+
+
+def test_yielding_without_stopping_never_speeds_up_a_slower_car():
+    slow = DrivingState("center", 2.5, None)
+    assert calls("Ambulance behind us, let it pass but don't stop", current=slow) == [("run_left_lane", {"v_ref": 2.5})]
+
+
+@pytest.mark.parametrize(
     "message",
     [
         "The fire engine went by, let's continue.",

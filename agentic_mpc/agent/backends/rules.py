@@ -20,8 +20,10 @@ clause it finds:
   the current reference speed by 0.75 / 1.25;
 - emergency vehicles (ambulance, fire engine, police car, siren, ...): coming, behind, approaching or "let
   them pass" means yield (the yield lane, default left as in the paper, at 0 m/s unless a side or a speed
-  is given); gone, passed, went by, all clear, false alarm means resume: the INITIAL specification's lane
-  and speed, read from the system message;
+  is given; "without stopping", "don't stop", "keep rolling" ask for a crawl, ``YIELD_ROLLING_MPS``,
+  instead: SUMO's emergency vehicles slow to 20 km/h past a car stopped beside them); gone, passed, went
+  by, all clear, false alarm means resume: the INITIAL specification's lane and speed, read from the
+  system message;
 - resume / restore ("carry on", "back to normal", "reset to the original settings");
 - no preference ("either side is fine", "forget the steering preference").
 
@@ -48,6 +50,7 @@ from agentic_mpc.agent.backends.rules_lexicon import (
     MPH_TO_MPS,
     SLOW_DOWN_FACTOR,
     SPEED_UP_FACTOR,
+    YIELD_ROLLING_MPS,
     Side,
 )
 from agentic_mpc.agent.backends.rules_parsing import (
@@ -156,10 +159,19 @@ class RulesBackend:
 
         lane_call: tuple[str, float | None] | None = None
         if meaning.emergency == "yield" or meaning.pull_over:
-            # Emergency vehicles decide lane and speed; only an explicit number changes the speed (0 otherwise).
+            # Emergency vehicles decide lane and speed: a stated speed, else a crawl if told not to stop, else 0.
             side = meaning.lane if meaning.lane in ("left", "right") else next(iter(meaning.bare_sides), None)
-            lane_call = (side or self.yield_lane, explicit_speed if explicit_speed is not None else 0.0)
+            rolling = meaning.emergency == "yield" and (meaning.keep_rolling or meaning.stop_negated)
+            if explicit_speed is not None:
+                v_yield = explicit_speed
+            elif rolling:  # move over at a crawl: SUMO slows an emergency vehicle passing a stopped car
+                v_yield = min(YIELD_ROLLING_MPS, current.v_ref_mps or YIELD_ROLLING_MPS)
+            else:
+                v_yield = 0.0
+            lane_call = (side or self.yield_lane, v_yield)
             plan.notes.append("Making way for the emergency vehicle." if meaning.emergency else "Pulling over.")
+            if rolling and explicit_speed is None:
+                plan.notes.append("Keeping a crawl in the yield lane instead of stopping.")
         elif meaning.emergency == "resume":
             lane_call = self._restore_lane(initial, explicit_speed)
             plan.notes.append("Resuming the original lane and speed.")
@@ -204,9 +216,9 @@ class RulesBackend:
             plan.notes.append("Please give the speed with a unit (km/h, mph or m/s).")
         if meaning.change_negated and speed is None:
             plan.notes.append("Keeping the current speed.")
-        if meaning.stop_negated and speed is None:
+        if meaning.stop_negated and speed is None and meaning.emergency != "yield":
             plan.notes.append("Not stopping.")
-        if meaning.lane_unspecified and meaning.lane is None:
+        if meaning.lane_unspecified and meaning.lane is None and lane_call is None:
             plan.notes.append("Which lane: left, center or right?")
         if not plan.calls and not plan.notes:
             plan.notes.append(

@@ -13,6 +13,8 @@ KMH_TO_MPS = 1 / 3.6
 MPH_TO_MPS = 0.44704
 SLOW_DOWN_FACTOR = 0.75
 SPEED_UP_FACTOR = 1.25
+YIELD_ROLLING_MPS = 4.0
+"""Yielding to an emergency vehicle without stopping: the speed in the yield lane (14.4 km/h)."""
 
 # ---------------------------------------------------------------------------------------------- lexicon
 _NUMBER_WORDS = {
@@ -81,6 +83,12 @@ _CLEAR_PREFERENCE = re.compile(
     r"\b(?:forget|drop|remove|clear|cancel|reset|ignore|delete|withdraw)\b[\w\s]*\b(?:preference|bias)\b|"
     r"\bstop (?:preferring|favou?ring)\b|\b(?:either|both) (?:sides?|ways?)\b|\bup to you\b|\bfree to choose\b|"
     r"\byour (?:choice|call)\b|\bno longer prefer\b)"
+)
+# Making way without coming to a halt ("let them pass, but don't stop", "move over and keep rolling"): in a
+# message about an emergency vehicle it asks for the yield lane at a crawl instead of a stop.
+_KEEP_ROLLING = re.compile(
+    r"\b(?:without (?:stopping|coming to a (?:full )?stop)|keep (?:on )?(?:rolling|moving)|no need to stop|"
+    r"not (?:need to |have to )?stop(?:ping)?)\b"
 )
 _STOP = re.compile(r"\b(?:stop|halt|standstill|come to a (?:full )?stop|pull over|park|freeze)\b(?!\s+\w+ing\b)")
 _SLOW = re.compile(

@@ -25,6 +25,7 @@ from agentic_mpc.agent.backends.rules_lexicon import (
     _FLOOR,
     _GONE,
     _INVERTED_SIDE,
+    _KEEP_ROLLING,
     _LANE_LABEL,
     _LANE_MOVE,
     _LEFT_AS_VERB_BEFORE,
@@ -191,6 +192,8 @@ class Interpretation:
     speed_up: bool = False
     change_negated: bool = False
     emergency: Literal["yield", "resume", "hold", "oncoming"] | None = None
+    keep_rolling: bool = False
+    """Make way without stopping ("let them pass, but don't stop", "keep rolling")."""
     resume: bool = False
     restore_all: bool = False
     question: bool = False
@@ -252,6 +255,8 @@ def interpret(text: str) -> Interpretation:
             result.speeds.extend(speed_phrases(clause))
         if _BARE_SPEED.search(clause) and not _SPEED.search(clause) and _SPEED_WORDS.search(clause):
             result.bare_number = True
+        if _KEEP_ROLLING.search(clause):
+            result.keep_rolling = True
         if re.search(r"\bpull over\b", clause) and not _is_negated(clause[: clause.index("pull over")]):
             result.pull_over = True
         elif (stop := _STOP.search(clause)) is not None:
