@@ -135,7 +135,7 @@ def _time_parts(world, loop) -> dict[str, list[float]]:
     bridge = world.bridge
     world.surroundings = timed("surroundings", world.surroundings)
     loop.controller.step = timed("controller", loop.controller.step)
-    vehicle_module.step = timed("model", vehicle_module.step)
+    vehicle_module.step_plant = timed("model", vehicle_module.step_plant)
     bridge.move_external = timed("sync", bridge.move_external)
     bridge.step = timed("bridge_step", bridge.step)
     simulation = bridge_module.libsumo.simulation
