@@ -3,9 +3,16 @@
 A new user message (typed, or generated from an observation) starts an agent step: it is appended to the
 history, the backend answers with text and tool calls, each call goes to the MCP server and its result is
 appended, and the backend is asked again, until it answers without tool calls; then the agent idles until
-the next message. The system message (tau = 0) holds the road (``sumo://road``: lanes, handedness, what
-yielding and resuming mean), the initially attached primitives and the tools, so the agent can restore the
-original specification.
+the next message. One exception (``AgentConfig.restore_reminder``, off by default, language models only):
+if a step's answer calls no tool while the specification (``mpc://specification``) differs from the initial
+one, that answer is set aside (recorded in the transcript, not kept in the history: a small model repeats its
+last answer), the agent appends a note saying how the specification differs (a user message with
+``source="agent"``) and asks once more: restore it if the situation that needed the change is over, else
+reply. At most once per step, never after a successful call in the step, never in its last round.
+
+The system message (tau = 0) holds the road (``sumo://road``: lanes, handedness, what yielding and resuming
+mean), the initially attached primitives and the tools, so the agent can restore the original specification.
+Tool calls are run by :mod:`agentic_mpc.agent.tool_calls`.
 
 The agent talks to the controller ONLY through the MCP server, with ``mcp.Client``: in-process by default
 (pass the ``MCPServer``, or any object with an ``mcp_server`` attribute holding one), or a server in another
@@ -38,13 +45,13 @@ controller keeps its last valid specification.
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import math
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 from mcp import Client
@@ -52,17 +59,13 @@ from mcp import Client
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
 from agentic_mpc.agent.config import AgentConfig, AgentError, WatchRequest, check_message, root_cause
 from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resource
-from agentic_mpc.agent.messages import Message, MessageHistory, Source, ToolCall
-from agentic_mpc.agent.prompt import system_prompt
+from agentic_mpc.agent.messages import Message, MessageHistory, Source
+from agentic_mpc.agent.prompt import restore_note, specification_changes, system_prompt
 from agentic_mpc.agent.report import StepReport
 from agentic_mpc.agent.situation import EmergencyWatch, read_situation
+from agentic_mpc.agent.tool_calls import ToolRunner, call_key
 from agentic_mpc.agent.transcript import Transcript
-from agentic_mpc.mcp.protocol import (
-    APPLY_AT_META_KEY,
-    INITIAL_SPECIFICATION_URI,
-    ROAD_URI,
-    validate_arguments,
-)
+from agentic_mpc.mcp.protocol import INITIAL_SPECIFICATION_URI, ROAD_URI, SPECIFICATION_URI
 
 logger = logging.getLogger(__name__)
 
@@ -89,6 +92,7 @@ class Agent:
         self.sim_clock = sim_clock
         self.history = MessageHistory()
         self.transcript = Transcript(self.config.transcript_path)
+        self._runner = ToolRunner(self.transcript, self.config.tool_timeout_s)
         self.tools: tuple[ToolSpec, ...] = ()
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -98,6 +102,7 @@ class Agent:
         self._ready = threading.Event()
         self._startup_error: BaseException | None = None
         self._client: Client | None = None
+        self._initial: dict[str, Any] | None = None  # mpc://specification/initial, read at the start
         self._closed = False
 
     # ------------------------------------------------------------------ lifecycle
@@ -197,6 +202,7 @@ class Agent:
         if not self.tools:
             raise AgentError("the MCP server lists no tools")
         initial = await read_json_resource(client, INITIAL_SPECIFICATION_URI)  # None: the agent cannot restore
+        self._initial = initial
         road = await read_json_resource(client, ROAD_URI, missing=logging.INFO)  # None: an older server
         system = self.history.append(
             Message(
@@ -289,9 +295,11 @@ class Agent:
             incoming = replace(incoming, context=await read_situation(self._client))
         user = self._append(incoming)
         report = StepReport(user.content, user.source or "user", user.sim_time_s, first_tau=user.tau)
+        now = partial(self._now, frozen)
         consecutive_errors = 0
         made: set[str] = set()  # the calls this step ran successfully, to stop a model that repeats them
-        for _ in range(self.config.max_rounds_per_step):
+        reminded = False
+        for round_index in range(self.config.max_rounds_per_step):
             try:
                 reply = await self._complete(frozen)
             except BackendError as error:
@@ -299,6 +307,10 @@ class Agent:
                 report.ended = "backend_error"
                 break
             calls = reply.tool_calls
+            last_round = round_index + 1 >= self.config.max_rounds_per_step
+            if not (calls or made or reminded or last_round) and await self._remind(reply.text, frozen):
+                reminded = True
+                continue
             agent_message = self._append(
                 Message("assistant", reply.text, tool_calls=calls, sim_time_s=self._now(frozen))
             )
@@ -306,7 +318,7 @@ class Agent:
             if not calls:
                 report.ended = "idle"
                 break
-            if made and all(_call_key(call) in made for call in calls):
+            if made and all(call_key(call) in made for call in calls):
                 report.ended = "repeated"
                 self.transcript.record("repeated_calls", tau=agent_message.tau, sim_time_s=self._now(frozen),
                                        calls=[call.describe() for call in calls])
@@ -315,9 +327,10 @@ class Agent:
             for index, call in enumerate(calls):
                 if index >= self.config.max_tool_calls_per_round:
                     limit = self.config.max_tool_calls_per_round
-                    result = self._tool_error(call, f"too many tool calls in one answer (at most {limit})", frozen)
+                    result = self._runner.refuse(call, f"too many tool calls in one answer (at most {limit})", now)
                 else:
-                    result = await self._execute(call, apply_at, frozen, agent_message.tau)
+                    result = await self._runner.execute(self._client, self.tools, call, apply_at,
+                                                        agent_message.tau, now)
                 stamped = self._append(result)
                 entry: dict[str, Any] = {"tool": call.name, "arguments": call.arguments, "ok": not stamped.is_error}
                 entry["error" if stamped.is_error else "result"] = stamped.data if stamped.data else stamped.content
@@ -325,7 +338,7 @@ class Agent:
                     entry["apply_at_s"] = apply_at
                 report.tool_calls.append(entry)
                 if not stamped.is_error:
-                    made.add(_call_key(call))
+                    made.add(call_key(call))
                 if stamped.is_error:
                     failures += 1
                     report.errors.append(f"{call.name}: {stamped.content}")
@@ -344,6 +357,23 @@ class Agent:
             applied=report.applied_calls, errors=report.errors,
         )
         return report
+
+    async def _remind(self, withheld: str, frozen: float | None) -> bool:
+        """The restore reminder (``AgentConfig.restore_reminder``) for an answer without a call: if the
+        specification differs from the initial one, record the answer (``withheld``: it does not enter the
+        history, a small model repeats its last answer), append a note saying how it differs and ask once
+        more (True); else nothing (False)."""
+        if not (self.config.restore_reminder and getattr(self.backend, "reads_situation", True)
+                and self._client is not None and self._initial is not None):
+            return False
+        current = await read_json_resource(self._client, SPECIFICATION_URI, missing=logging.INFO)
+        changes = specification_changes(self._initial, current)
+        if not changes:
+            return False
+        self.transcript.record("restore_reminder", tau=self.history.tau, sim_time_s=self._now(frozen),
+                               changes=changes, withheld_answer=withheld)
+        self._append(Message("user", restore_note(changes), source="agent", sim_time_s=self._now(frozen)))
+        return True
 
     async def _complete(self, frozen: float | None) -> BackendReply:
         last_error: BaseException | None = None
@@ -368,52 +398,3 @@ class Agent:
             f"backend {self.backend.name} gave no usable answer after {self.config.backend_attempts} attempts: "
             f"{str(last_error) or type(last_error).__name__}"
         )
-
-    def _tool_error(self, call: ToolCall, error: str, frozen: float | None) -> Message:
-        logger.warning("tool call %s refused: %s", call.name, error)
-        return Message("tool", f"Error: {error}", tool_call_id=call.id, name=call.name, is_error=True,
-                       sim_time_s=self._now(frozen))
-
-    async def _execute(self, call: ToolCall, apply_at: float | None, frozen: float | None, tau: int) -> Message:
-        """Validate one call against the listed tools and schemas, then send it to the MCP server."""
-        self.transcript.record("tool_call", tau=tau, sim_time_s=self._now(frozen), tool=call.name,
-                               arguments=call.arguments, raw_arguments=call.raw_arguments or None,
-                               apply_at_s=apply_at)
-        tools = {t.name: t for t in self.tools}
-        if call.error is not None:
-            return self._result_record(call, self._tool_error(call, call.error, frozen), tau)
-        if call.name not in tools:
-            error = f"unknown tool {call.name!r}; available tools: {', '.join(sorted(tools))}"
-            return self._result_record(call, self._tool_error(call, error, frozen), tau)
-        try:
-            validate_arguments(call.name, tools[call.name].input_schema, call.arguments)
-        except ValueError as error:
-            return self._result_record(call, self._tool_error(call, str(error), frozen), tau)
-        assert self._client is not None
-        meta = {APPLY_AT_META_KEY: apply_at} if apply_at is not None else None
-        try:
-            sent = self._client.call_tool(call.name, call.arguments, meta=meta)  # type: ignore[arg-type]
-            result = await asyncio.wait_for(sent, self.config.tool_timeout_s)
-        except Exception as error:  # protocol error, timeout, lost connection
-            detail = str(error) or type(error).__name__
-            return self._result_record(call, self._tool_error(call, f"MCP call failed: {detail}", frozen), tau)
-        text = "\n".join(getattr(block, "text", "") for block in result.content) or "(no content)"
-        if result.is_error:
-            return self._result_record(call, self._tool_error(call, text, frozen), tau)
-        message = Message("tool", text, tool_call_id=call.id, name=call.name, data=result.structured_content,
-                          sim_time_s=self._now(frozen))
-        logger.info("tool call %s(%s) applied%s", call.name, call.arguments,
-                    f" at t={apply_at:.3f} s" if apply_at is not None else "")
-        return self._result_record(call, message, tau)
-
-    def _result_record(self, call: ToolCall, message: Message, tau: int) -> Message:
-        outcome = {"error": message.content} if message.is_error else {"result": message.data or message.content}
-        self.transcript.record(
-            "tool_result", tau=tau, sim_time_s=message.sim_time_s, tool=call.name, arguments=call.arguments,
-            is_error=message.is_error, **outcome,
-        )
-        return message
-
-
-def _call_key(call: ToolCall) -> str:
-    return f"{call.name}:{json.dumps(call.arguments, sort_keys=True, default=str)}"

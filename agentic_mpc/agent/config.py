@@ -35,6 +35,12 @@ class AgentConfig(BaseModel):
                           "'Authorization: Bearer ...'; read when the agent connects, never stored)")
     situation: bool = Field(True, description="give each step the current situation read from MCP resources "
                                               "(backends that read it: the language models)")
+    restore_reminder: bool = Field(
+        False, description="a step whose answer calls no tool while the specification differs from the initial one "
+                          "gets one more round: that answer is set aside (transcript event restore_reminder), a "
+                          "note says how the specification differs and asks the model to restore it if the "
+                          "situation that needed the change is over, else to reply (once a step; backends that "
+                          "read the situation: the language models)")
     watch_emergency_vehicles: bool = Field(
         False, description="wake on an emergency vehicle approaching / passed, detected on sumo://emergency-"
                            "vehicles (realtime: subscribed to its updates; lockstep: checked at watch())")

@@ -1,7 +1,8 @@
 """The agent's state: the message history H(tau) = [m(0), ..., m(tau)] of the paper's section "Agent".
 
 Four kinds of message, as in the paper: the system message (instructions, the initially attached primitives,
-the tools), user messages (typed by a person, or generated from observations, ``source="observation"``),
+the tools), user messages (typed by a person, generated from observations, ``source="observation"``, or
+the agent's own restore reminder, ``source="agent"``),
 agent messages (text and tool invocation requests; role ``assistant`` as chat APIs call it) and tool results.
 Every appended message is one agent step: its ``tau`` is its index in the history. (The paper numbers only
 the messages it shows; here tool results and the agent's closing text are steps too.)
@@ -17,7 +18,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 Role = Literal["system", "user", "assistant", "tool"]
-Source = Literal["user", "observation"]
+Source = Literal["user", "observation", "agent"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,7 +59,8 @@ class Message:
     is_error: bool = False
     """Tool results: the call was refused or failed."""
     source: Source | None = None
-    """User messages: typed by a person or generated from an observation."""
+    """User messages: typed by a person, generated from an observation, or the agent's own note to the model
+    (``agent``: the restore reminder)."""
     data: dict[str, Any] | None = None
     """Structured payload beside the text: the system message's initial specification and tools, a tool
     result's structured content. Backends that are not language models (the rule-based one) read it."""

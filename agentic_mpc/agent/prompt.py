@@ -92,3 +92,47 @@ def system_prompt(
     if extra:
         lines += ["", extra]
     return "\n".join(lines)
+
+
+def _settings(primitive: dict[str, Any]) -> dict[str, Any]:
+    """What a tool sets in a primitive: its scalar parameters (lists such as obstacles are the world's)."""
+    return {key: value for key, value in primitive.items()
+            if key not in ("kind", "symbol") and not isinstance(value, list | dict)}
+
+
+def _by_kind(specification: dict[str, Any] | None) -> dict[str, dict[str, Any]]:
+    attached = (specification or {}).get("attached")
+    return {p["kind"]: _settings(p) for p in attached or [] if isinstance(p, dict)
+            and isinstance(p.get("kind"), str) and p["kind"] != "mandatory"}
+
+
+def _shown(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def specification_changes(initial: dict[str, Any] | None, current: dict[str, Any] | None) -> list[str]:
+    """How ``current`` differs from ``initial`` (``mpc://specification`` JSON), one short phrase per primitive:
+    ``path_tracking: lane=left (initially center), v_ref_mps=0 (initially 15)``; none if either is unknown."""
+    if not isinstance(initial, dict) or not isinstance(current, dict):
+        return []
+    before, now = _by_kind(initial), _by_kind(current)
+    changes = []
+    for kind, settings in now.items():
+        if kind not in before:
+            shown = ", ".join(f"{key}={_shown(value)}" for key, value in settings.items())
+            changes.append(f"{kind}({shown}) is attached (not initially)")
+            continue
+        differing = [f"{key}={_shown(value)} (initially {_shown(before[kind].get(key))})"
+                     for key, value in settings.items() if before[kind].get(key) != value]
+        if differing:
+            changes.append(f"{kind}: {', '.join(differing)}")
+    changes += [f"{kind} is detached (initially attached)" for kind in before if kind not in now]
+    return changes
+
+
+def restore_note(changes: list[str]) -> str:
+    """The agent's one reminder in a step whose answer changed nothing while the specification differs from
+    the initial one (:class:`~agentic_mpc.agent.agent.Agent`, ``AgentConfig.restore_reminder``)."""
+    return ("Note from the agent, not the passenger: the specification is not the initial one ("
+            + "; ".join(changes) + "). If the situation that needed this change is over, call the tool that "
+            "restores the initial specification now; if it still holds, reply without a call.")

@@ -4,7 +4,10 @@ Every record has ``event``, ``tau`` (the agent step it belongs to), ``sim_time_s
 ``wall_time_s`` (seconds since the agent started). Events: ``message`` (any appended message),
 ``tool_call`` (before it is sent: tool, arguments, ``apply_at_s`` in lockstep), ``tool_result`` (result or
 ``error``), ``rejected_input`` (an empty, oversized or malformed message that never became a step),
-``backend_error`` (the backend gave no usable answer; ``attempt``), ``step_end`` (why the step ended).
+``backend_error`` (the backend gave no usable answer; ``attempt``), ``restore_reminder`` (an answer without
+a call while the specification differs from the initial one: ``changes``, and ``withheld_answer``, the
+answer, which stays out of the history; the agent's note is the next ``message``),
+``step_end`` (why the step ended).
 """
 
 from __future__ import annotations

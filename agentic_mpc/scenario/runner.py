@@ -68,7 +68,8 @@ def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True,
 
         config = AgentConfig(timing=settings.mode, latency_s=settings.latency_s, transcript_path=transcript_path,
                              backend_timeout_s=settings.timeout_s + 5.0, system_prompt_extra=settings.extra_prompt,
-                             max_rounds_per_step=settings.max_rounds_per_step)
+                             max_rounds_per_step=settings.max_rounds_per_step,
+                             restore_reminder=settings.restore_reminder)
         agent = AgentSetup(build_backend(settings, world.lanes().lefthand), config, settings.observation_messages)
     return RunLoop(
         world, initial_specification(scenario.specification, world),

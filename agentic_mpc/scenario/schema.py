@@ -85,6 +85,9 @@ class AgentSettings(_Strict):
     ctx_size: int = Field(8192, ge=256, le=1_048_576, description="llamacpp: context size in tokens")
     max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step (a model "
                                      "that keeps calling tools is stopped there)")
+    restore_reminder: bool = Field(False, description="language models: a step whose answer calls no tool while the "
+                                   "specification differs from the initial one gets one reminder round saying how "
+                                   "it differs (agent/config.py; measured not to help Qwen 1.5B, README)")
 
     @field_validator("model")
     @classmethod

@@ -77,3 +77,16 @@ def test_a_failure_mid_run_keeps_what_was_recorded(tmp_path):
     summary = pd.read_csv(tmp_path / "summary.csv").iloc[0]
     assert 35 <= len(trajectory) <= 40
     assert summary["status"] == "failed" and "ego" in summary["error"]
+
+
+def test_agent_settings_reach_the_agent():
+    from agentic_mpc.scenario.runner import build_loop, build_world
+
+    scenario = load_scenario(REPO / "scenarios/paper_steering_preference_plain.yaml").variant("message_left")
+    agent = scenario.agent.model_copy(update={"restore_reminder": True, "max_rounds_per_step": 3})
+    scenario = scenario.model_copy(update={"agent": agent})
+    loop = build_loop(scenario, build_world(scenario))
+    try:
+        assert loop.agent.config.restore_reminder is True and loop.agent.config.max_rounds_per_step == 3
+    finally:
+        loop.close()
