@@ -49,16 +49,20 @@ def _segment(inner_s: np.ndarray, s: float) -> int:
 
 
 @numba.njit(**_JIT)
+def _point(xy, s_table, tangents, inner_s, length, s):  # type: ignore[no-untyped-def]
+    # Polyline.at for one arc length: (x, y, tx, ty) of the point at s, clamped to the line.
+    v = _clamped(s, length)
+    i = _segment(inner_s, v)
+    d = v - s_table[i]
+    tx, ty = tangents[i, 0], tangents[i, 1]
+    return xy[i, 0] + d * tx, xy[i, 1] + d * ty, tx, ty
+
+
+@numba.njit(**_JIT)
 def _points(xy, s_table, tangents, inner_s, length, s, points, tangents_out):  # type: ignore[no-untyped-def]
     for k in range(s.shape[0]):
-        v = _clamped(s[k], length)
-        i = _segment(inner_s, v)
-        d = v - s_table[i]
-        tx, ty = tangents[i, 0], tangents[i, 1]
-        points[k, 0] = xy[i, 0] + d * tx
-        points[k, 1] = xy[i, 1] + d * ty
-        tangents_out[k, 0] = tx
-        tangents_out[k, 1] = ty
+        points[k, 0], points[k, 1], tangents_out[k, 0], tangents_out[k, 1] = _point(
+            xy, s_table, tangents, inner_s, length, s[k])
 
 
 @numba.njit(**_JIT)
@@ -66,12 +70,7 @@ def _discs(xy, s_table, tangents, inner_s, length, steps, rows, out):  # type: i
     for n in range(rows.shape[0]):
         speed, lane_s, lateral, offset = rows[n, 0], rows[n, 1], rows[n, 2], rows[n, 3]
         for k in range(steps.shape[0]):
-            v = _clamped(lane_s + speed * steps[k], length)
-            i = _segment(inner_s, v)
-            d = v - s_table[i]
-            tx, ty = tangents[i, 0], tangents[i, 1]
-            x = xy[i, 0] + d * tx
-            y = xy[i, 1] + d * ty
+            x, y, tx, ty = _point(xy, s_table, tangents, inner_s, length, lane_s + speed * steps[k])
             if lateral != 0.0:  # off the lane's centre line: along the normal (-ty, tx)
                 x = x + lateral * -ty
                 y = y + lateral * tx
@@ -85,12 +84,7 @@ def _discs(xy, s_table, tangents, inner_s, length, steps, rows, out):  # type: i
 @numba.njit(**_JIT)
 def _sides(xy, s_table, tangents, inner_s, length, start, step, steps, left, right, out):  # type: ignore[no-untyped-def]
     for k in range(steps.shape[0]):
-        v = _clamped(start + step * steps[k], length)
-        i = _segment(inner_s, v)
-        d = v - s_table[i]
-        tx, ty = tangents[i, 0], tangents[i, 1]
-        x = xy[i, 0] + d * tx
-        y = xy[i, 1] + d * ty
+        x, y, tx, ty = _point(xy, s_table, tangents, inner_s, length, start + step * steps[k])
         out[0, k, 0] = x + left * -ty
         out[0, k, 1] = y + left * tx
         out[1, k, 0] = x + right * -ty
