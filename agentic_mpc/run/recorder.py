@@ -6,7 +6,8 @@ clearance, when passed) and ``summary.csv`` (the metrics of :mod:`agentic_mpc.sc
 
 A ``collision`` row in ``events.csv`` is one contact episode of the ego (not every step in contact): ``source``
 says who saw it first (``sumo`` or ``geometry``), ``content`` the cause and the other vehicle, ``result`` the
-same as JSON (``other``, ``other_type``, ``cause``, ``ego_at_fault``, the two speeds)."""
+same as JSON (``other``, ``other_type``, ``cause``, ``ego_at_fault``, the two speeds). A ``sumo_collision_report``
+row is a collision SUMO reported while the two footprints stayed apart (``min_footprint_gap_m``): not counted."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from agentic_mpc.primitives import PathTracking, Specification
 from agentic_mpc.scenario.comfort import add_motion_columns, comfort_summary
 from agentic_mpc.scenario.metrics import OBSTACLE_COLUMNS, MetricsRecorder, ObstacleTrack, obstacle_rows, summarise
 from agentic_mpc.world.base import World
-from agentic_mpc.world.collisions import CollisionEpisode
+from agentic_mpc.world.collisions import CollisionEpisode, ReportWithoutContact
 from agentic_mpc.world.observation import Observation
 
 TRAFFIC_COLUMNS = ("time_s", "id", "type_id", "vclass", "x_m", "y_m", "heading_rad", "speed_mps", "lane_id",
@@ -104,7 +105,7 @@ class RunRecorder:
             "cost_min": out.cost_min, "effective_samples": out.effective_samples,
             "effective_fraction": out.effective_fraction, "temperature": out.temperature, "solve_ms": out.solve_ms,
             "step_ms": outcome.step_ms, "vehicles_in_range": len(before.traffic), "discs": outcome.discs,
-            "collisions": sum(1 for c in before.collisions if c.involves_ego),
+            "collisions": sum(1 for c in before.collisions if c.ego_contact),
             "gap_ahead_m": min((v.gap_m for v in before.traffic if v.relative_lane == 0 and v.relation == "ahead"),
                                default=float("nan")),
         }
@@ -156,6 +157,7 @@ class RunRecorder:
         if self.plan_rows:
             pd.DataFrame(self.plan_rows, columns=["time_s", "k", "x_m", "y_m"]).to_csv(out_dir / "plan.csv", index=False)
         collisions = [collision_event(e) for e in self.metrics.collisions.episodes]
+        collisions += [report_without_contact_event(r) for r in self.metrics.collisions.reports_without_contact]
         events = events_table(sorted(self.setup_events + transcript + list(self.received_calls)
                                      + self.specification_events + collisions,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
@@ -192,6 +194,17 @@ def collision_event(episode: CollisionEpisode) -> dict[str, Any]:
         "result": {"other": episode.other_id, "other_type": episode.other_type, "cause": episode.cause,
                    "ego_at_fault": episode.ego_at_fault, "ego_speed_mps": round(episode.ego_speed_mps, 3),
                    "other_speed_mps": round(episode.other_speed_mps, 3)},
+    }
+
+
+def report_without_contact_event(report: ReportWithoutContact) -> dict[str, Any]:
+    """The ``events.csv`` row of a collision SUMO reported that the footprints do not confirm (not counted)."""
+    return {
+        "event": "sumo_collision_report", "sim_time_s": round(report.time_s, 3), "tau": None, "source": "sumo",
+        "content": f"SUMO reported a collision of the ego and {report.other_id}; the footprints stayed "
+                   f"{report.min_gap_m:.2f} m apart or more: not counted as a collision",
+        "result": {"other": report.other_id, "other_type": report.other_type,
+                   "min_footprint_gap_m": round(report.min_gap_m, 3)},
     }
 
 

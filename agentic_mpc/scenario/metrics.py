@@ -74,7 +74,7 @@ class MetricsRecorder:
             if closing > 1e-6:
                 self.min_ttc_s = min(self.min_ttc_s, max(vehicle.gap_m, 0.0) / closing)
         for collision in observation.collisions:
-            if collision.involves_ego:
+            if collision.ego_contact:
                 self.ego_collision_pairs.add(tuple(sorted((collision.collider, collision.victim))))
         self.collisions.update(observation)
         for track in self.obstacles:
@@ -116,6 +116,7 @@ def summarise(
         "sim_time_s": round(float(trajectory["time_s"].iloc[-1]) if len(trajectory) else 0.0, 3),
         "collisions": len(recorder.collisions.episodes),
         "collisions_ego_at_fault": recorder.collisions.at_fault,
+        "sumo_reports_without_contact": len(recorder.collisions.reports_without_contact),
         "reached_goal": bool(reached.any()),
         "obstacle_side": obstacle_side,
         "min_obstacle_clearance_m": finite_or_nan(min_clearance),

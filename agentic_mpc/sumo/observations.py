@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterable, Sequence
 from agentic_mpc.sumo.bridge import CollisionRecord, VehicleInfo, VehicleState
 from agentic_mpc.sumo.kernels import locate
 from agentic_mpc.sumo.network import Road
-from agentic_mpc.world.collisions import boxes_overlap
+from agentic_mpc.world.collisions import boxes_overlap, footprint_gap_m
 from agentic_mpc.world.observation import (
     CollisionObservation,
     EgoObservation,
@@ -216,13 +216,19 @@ class ObservationBuilder:
             )
         emergency_obs.sort(key=lambda e: e.distance_m)
 
-        collision_obs = [
-            CollisionObservation(
+        collision_obs = []
+        for c in collisions:
+            # SUMO's report measured against the footprints (it checks in lane coordinates: see CollisionObservation).
+            gap = math.nan
+            if self.ego_id in (c.collider, c.victim):
+                other_id = c.victim if c.collider == self.ego_id else c.collider
+                other = (next((v for v in traffic if v.id == other_id), None) or obstacles.get(other_id)
+                         or next((e.vehicle for e in emergency_obs if e.vehicle.id == other_id), None))
+                gap = math.nan if other is None else footprint_gap_m(ego_obs, other)
+            collision_obs.append(CollisionObservation(
                 c.collider, c.victim, c.collider_type, c.victim_type, c.collider_speed_mps, c.victim_speed_mps,
-                c.kind, c.lane_id, c.pos_m, self.ego_id in (c.collider, c.victim), "sumo",
-            )
-            for c in collisions
-        ]
+                c.kind, c.lane_id, c.pos_m, self.ego_id in (c.collider, c.victim), "sumo", gap,
+            ))
         # Our own footprint check against every vehicle and obstacle: SUMO misses the ego's part in the next
         # lane (it reports only once the ego's centre is across the line).
         reported = {frozenset((c.collider, c.victim)) for c in collision_obs}
@@ -234,7 +240,7 @@ class ObservationBuilder:
                 collision_obs.append(
                     CollisionObservation(
                         self.ego_id, other.id, ego_info.type_id, other.type_id, ego.speed_mps, speed, "overlap",
-                        ego.lane_id, ego.lane_pos_m, True, "geometry",
+                        ego.lane_id, ego.lane_pos_m, True, "geometry", 0.0,
                     )
                 )
         return Observation(

@@ -2,7 +2,9 @@
 
 Every world reports contact in ``Observation.collisions`` (SUMO's own reports plus :func:`boxes_overlap` of the
 ego's box with every other vehicle's and obstacle's box: SUMO does not see the part of the ego that sticks
-into the next lane). :class:`CollisionTracker` turns those per-step reports into contact EPISODES: an episode
+into the next lane). A SUMO report counts only when the footprints confirm it (:func:`footprint_gap_m` within
+:data:`CONTACT_TOLERANCE_M`): SUMO checks in lane coordinates, and on a curve they can be a metre off, both
+ways; the others are kept as :class:`ReportWithoutContact`. :class:`CollisionTracker` turns those per-step reports into contact EPISODES: an episode
 with one vehicle starts at the first step in contact and lasts until the two have been apart for
 :data:`SEPARATION_S`; each episode is counted once and classified by :func:`classify` from the recent
 observations (positions, lane indices, lateral offsets; lateral speeds from successive observations).
@@ -53,6 +55,11 @@ LATERAL_WINDOW_S = 0.5
 """Lateral speeds are averaged over this last stretch before contact (recent motion, not an old drift)."""
 LATERAL_SPEED_MPS = 0.1
 """Below this both count as driving straight (the controller's lateral jitter is a few cm/s)."""
+CONTACT_TOLERANCE_M = 0.1
+"""A collision SUMO reports is contact only when the two footprints come within this distance. SUMO checks in
+lane coordinates, and on a curve those place a car on the next lane up to a metre away from where it is:
+measured on the curved road, reports with the boxes 0.35-1.2 m apart (docs/traffic.md). Two samples 40 ms
+apart can straddle a glancing touch; 0.1 m leaves room for that."""
 SEPARATION_S = 0.5
 """Apart for this long ends an episode: a one-step flicker of the overlap is not a second collision."""
 STOPPED_MPS = 0.1
@@ -94,6 +101,24 @@ def boxes_overlap(a: Footprint, b: Footprint) -> bool:
             if max(pa) < min(pb) or max(pb) < min(pa):
                 return False
     return True
+
+
+def _point_to_segment_m(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    abx, aby = b[0] - a[0], b[1] - a[1]
+    t = ((p[0] - a[0]) * abx + (p[1] - a[1]) * aby) / (abx * abx + aby * aby)
+    t = min(1.0, max(0.0, t))
+    return math.hypot(p[0] - a[0] - t * abx, p[1] - a[1] - t * aby)
+
+
+def footprint_gap_m(a: Footprint, b: Footprint) -> float:
+    """The shortest distance between two oriented rectangles; 0 when they overlap or touch."""
+    if boxes_overlap(a, b):
+        return 0.0
+    ca = corners(a.x_m, a.y_m, a.heading_rad, a.length_m, a.width_m)
+    cb = corners(b.x_m, b.y_m, b.heading_rad, b.length_m, b.width_m)
+    # Apart convex polygons: the nearest points are a corner of one and an edge of the other.
+    return min(_point_to_segment_m(p, box[n - 1], box[n])
+               for points, box in ((ca, cb), (cb, ca)) for p in points for n in range(4))
 
 
 def in_ego_frame(ego: Footprint, other: Footprint) -> tuple[float, float]:
@@ -228,14 +253,37 @@ class CollisionEpisode:
 
 
 @dataclass
+class ReportWithoutContact:
+    """SUMO reported the ego colliding with ``other_id``, but the footprints never came within
+    :data:`CONTACT_TOLERANCE_M` of each other while it went on reporting it: not a collision, kept for the record."""
+
+    time_s: float
+    other_id: str
+    other_type: str
+    min_gap_m: float
+    """The closest the two footprints came during the reports."""
+    last_s: float
+
+
+@dataclass
 class CollisionTracker:
-    """Feed it every observation in order (:meth:`update`); it keeps :attr:`episodes`, one per contact episode."""
+    """Feed it every observation in order (:meth:`update`); it keeps :attr:`episodes`, one per contact episode,
+    and :attr:`reports_without_contact`, SUMO's reports that our footprints do not confirm (an episode each)."""
 
     history_s: float = HISTORY_S
     separation_s: float = SEPARATION_S
     episodes: list[CollisionEpisode] = field(default_factory=list)
+    reports_without_contact: list[ReportWithoutContact] = field(default_factory=list)
     _history: deque[Observation] = field(default_factory=deque)
     _last_contact_s: dict[str, float] = field(default_factory=dict)
+    _open_reports: dict[str, ReportWithoutContact] = field(default_factory=dict)
+
+    def _report_without_contact(self, time_s: float, other_id: str, other_type: str, gap_m: float) -> None:
+        report = self._open_reports.get(other_id)
+        if report is None or time_s - report.last_s > self.separation_s + 1e-9:
+            report = self._open_reports[other_id] = ReportWithoutContact(time_s, other_id, other_type, gap_m, time_s)
+            self.reports_without_contact.append(report)
+        report.min_gap_m, report.last_s = min(report.min_gap_m, gap_m), time_s
 
     def update(self, observation: Observation) -> list[CollisionEpisode]:
         """Record ``observation``; returns the episodes that start in it."""
@@ -249,11 +297,19 @@ class CollisionTracker:
             if not report.involves_ego:
                 continue
             other_id = report.victim if report.collider == ego_id else report.collider
+            ego_is_collider = report.collider == ego_id
+            if not report.ego_contact:
+                self._report_without_contact(observation.time_s, other_id,
+                                             report.victim_type if ego_is_collider else report.collider_type,
+                                             report.footprint_gap_m)
+                continue
             last = self._last_contact_s.get(other_id)
             self._last_contact_s[other_id] = observation.time_s
             if last is not None and observation.time_s - last <= self.separation_s + 1e-9:
                 continue  # the same episode goes on
-            ego_is_collider = report.collider == ego_id
+            open_report = self._open_reports.pop(other_id, None)
+            if open_report is not None and observation.time_s - open_report.last_s <= self.separation_s + 1e-9:
+                self.reports_without_contact.remove(open_report)  # it was the start of this contact
             episode = CollisionEpisode(
                 observation.time_s, other_id, report.victim_type if ego_is_collider else report.collider_type,
                 classify(history, other_id), report.source,

@@ -23,7 +23,7 @@ import math
 from dataclasses import asdict, dataclass, fields
 from typing import Any, Literal, TypeVar
 
-from agentic_mpc.world.collisions import boxes_overlap, corners  # noqa: F401 (re-exported: older imports)
+from agentic_mpc.world.collisions import CONTACT_TOLERANCE_M, boxes_overlap, corners  # noqa: F401 (re-exported)
 
 Relation = Literal["ahead", "behind", "alongside"]
 
@@ -197,6 +197,16 @@ class CollisionObservation:
     pos_m: float
     involves_ego: bool
     source: Literal["sumo", "geometry"]
+    footprint_gap_m: float
+    """The distance between the two footprints at this step: 0 for our overlaps; for SUMO's reports of the ego,
+    measured (SUMO checks in lane coordinates, which on a curve can report cars a metre apart); NaN when not
+    measured (a report without the ego, or with a vehicle not in view)."""
+
+    @property
+    def ego_contact(self) -> bool:
+        """The ego touches the other: our footprints confirm it within
+        :data:`~agentic_mpc.world.collisions.CONTACT_TOLERANCE_M` (unmeasured reports of the ego are trusted)."""
+        return self.involves_ego and not self.footprint_gap_m > CONTACT_TOLERANCE_M
 
     def to_json(self) -> dict[str, Any]:
         return _rounded(self)
@@ -231,4 +241,4 @@ class Observation:
 
     @property
     def ego_collided(self) -> bool:
-        return any(c.involves_ego for c in self.collisions)
+        return any(c.ego_contact for c in self.collisions)

@@ -238,7 +238,7 @@ class PlainWorld:
         touching += [o for o in obstacles if math.hypot(o.x_m - x, o.y_m - y) < 0.5 * o.length_m]
         collisions = [
             CollisionObservation("ego", other.id, "ego", other.type_id, v, getattr(other, "speed_mps", 0.0), "overlap",
-                                 ego_role, x - road.start_x_m, True, "geometry")
+                                 ego_role, x - road.start_x_m, True, "geometry", 0.0)
             for other in touching
         ]
         emergency.sort(key=lambda e: e.distance_m)

@@ -14,11 +14,13 @@ from dataclasses import dataclass
 import pytest
 
 from agentic_mpc.world.collisions import (
+    CONTACT_TOLERANCE_M,
     EGO_AT_FAULT,
     CollisionTracker,
     boxes_overlap,
     classify,
     contact_axis,
+    footprint_gap_m,
 )
 from agentic_mpc.world.observation import (
     CollisionObservation,
@@ -96,6 +98,63 @@ def test_contact_axis_of_a_turned_corner_is_the_one_closing_in():
     assert contact_axis(before, now) == "sideways"
 
 
+def test_footprint_gap_is_the_distance_between_the_boxes():
+    from shapely.geometry import Polygon
+
+    from agentic_mpc.world.collisions import corners
+
+    def polygon(box: Box) -> Polygon:
+        return Polygon(corners(box.x_m, box.y_m, box.heading_rad, box.length_m, box.width_m))
+
+    assert footprint_gap_m(Box(0, 0), Box(5.0, 0)) == pytest.approx(0.5)  # bumper to bumper
+    assert footprint_gap_m(Box(0, 0), Box(1.0, 2.3)) == pytest.approx(0.5)  # side by side
+    assert footprint_gap_m(Box(0, 0), Box(3.0, 1.5, math.radians(45))) == 0.0  # overlapping
+    rng = __import__("random").Random(7)
+    for _ in range(500):
+        a = Box(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-math.pi, math.pi), rng.uniform(4, 6),
+                rng.uniform(1.6, 2.2))
+        b = Box(rng.uniform(-8, 8), rng.uniform(-5, 5), rng.uniform(-math.pi, math.pi), rng.uniform(4, 12),
+                rng.uniform(1.6, 2.6))
+        assert footprint_gap_m(a, b) == pytest.approx(polygon(a).distance(polygon(b)), abs=1e-9)
+
+
+def sumo_report(t: float, gap_m: float) -> Observation:
+    """The ego and "car1" side by side in neighbouring lanes (not touching), and SUMO reporting that they collide,
+    with the footprint gap the SUMO world measured."""
+    ego = EgoObservation("ego", 15.0 * t, 0.0, 0.0, 15.0, "road_1", 1, "", "road", 15.0 * t, 0.0, 4.5, 1.8)
+    report = CollisionObservation("ego", "car1", "ego", "car", 15.0, 17.0, "collision", "road_1", 0.0, True, "sumo",
+                                  gap_m)
+    return Observation(round(t, 9), ego, (), (), (), (report,))
+
+
+def test_a_sumo_report_the_footprints_do_not_confirm_is_kept_apart_not_counted():
+    # Measured on the curved road (rescue-lane traffic, yield, seed 300): SUMO reported the ego striking a car
+    # it passed behind, the boxes 0.35 m apart at their closest and 1.26 m when SUMO reported it.
+    tracker = CollisionTracker()
+    for k, gap in enumerate((1.26, 1.5, 1.9)):
+        tracker.update(sumo_report(k * DT_S, gap))
+    tracker.update(sumo_report(3.0, 0.9))  # a second report of the same pair, long after: a record of its own
+    assert tracker.episodes == [] and tracker.at_fault == 0
+    assert [(r.other_id, r.other_type, r.time_s, r.min_gap_m) for r in tracker.reports_without_contact] == [
+        ("car1", "car", 0.0, 1.26), ("car1", "car", 3.0, 0.9)]
+    assert not sumo_report(0.0, 1.26).ego_collided
+
+
+def test_a_sumo_report_within_the_tolerance_or_unmeasured_is_a_collision():
+    for gap in (0.0, CONTACT_TOLERANCE_M, float("nan")):
+        tracker = CollisionTracker()
+        tracker.update(sumo_report(0.0, gap))
+        assert [(e.other_id, e.source) for e in tracker.episodes] == [("car1", "sumo")]
+        assert tracker.reports_without_contact == []
+
+
+def test_a_report_without_contact_that_turns_into_contact_is_one_collision():
+    tracker = CollisionTracker()
+    tracker.update(sumo_report(0.0, 0.3))
+    tracker.update(sumo_report(DT_S, 0.05))
+    assert [e.time_s for e in tracker.episodes] == [DT_S] and tracker.reports_without_contact == []
+
+
 # --- scripted observations -----------------------------------------------------------------------------------
 def lane_of(y_m: float) -> tuple[int, float]:
     index = round(y_m / LANE_M) + 1
@@ -132,7 +191,7 @@ def observe(t: float, ego: Motion, others: dict[str, Motion], obstacles: dict[st
                                            ox, offset, abs(offset) - 4.5, "ahead", o_index - index))
     collisions = tuple(
         CollisionObservation("ego", other.id, "ego", other.type_id, speed, getattr(other, "speed_mps", 0.0),
-                             "overlap", ego_obs.lane_id, x, True, "geometry")
+                             "overlap", ego_obs.lane_id, x, True, "geometry", 0.0)
         for other in (*traffic, *stopped) if boxes_overlap(ego_obs, other)
     )
     return Observation(round(t, 9), ego_obs, tuple(traffic), (), tuple(stopped), collisions)
@@ -237,7 +296,8 @@ def test_several_vehicles_each_their_own_episode_and_fault():
 
 def test_a_sumo_report_without_the_other_in_view_uses_sumos_collider():
     ego = EgoObservation("ego", 0.0, 0.0, 0.0, 10.0, "road_1", 1, "", "road", 0.0, 0.0, 4.5, 1.8)
-    report = CollisionObservation("car9", "ego", "car", "ego", 20.0, 10.0, "collision", "road_1", 0.0, True, "sumo")
+    report = CollisionObservation("car9", "ego", "car", "ego", 20.0, 10.0, "collision", "road_1", 0.0, True, "sumo",
+                                  float("nan"))
     observation = Observation(0.0, ego, (), (), (), (report,))
     assert classify([observation], "car9") == "rear_ended"
     tracker = CollisionTracker()
