@@ -70,9 +70,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="rules: where to pull over (default: each world's road edge)")
     parser.add_argument("--rules-first", action="store_true",
                         help="openai, llamacpp: the rules backend answers what it understands, the model the rest")
-    parser.add_argument("--max-rounds", type=positive_int, default=2,
+    parser.add_argument("--max-rounds", type=positive_int, default=None,
                         help="backend answers per turn (default 2: a call and a second one; json_schema mode "
-                             "allows one call per answer, so a compound request needs both)")
+                             "allows one call per answer, so a compound request needs both); with --closed-loop "
+                             "the scenarios' max_rounds_per_step (default theirs, 6)")
     parser.add_argument("--category", action="append", default=None, help="only this category (repeatable)")
     parser.add_argument("--case", action="append", default=None, help="only this case id (repeatable)")
     parser.add_argument("--per-category", type=positive_int, default=None,
@@ -121,9 +122,11 @@ def _model_options(args: argparse.Namespace) -> dict:
 
 def _agent_settings(args: argparse.Namespace) -> list[tuple[str, str]]:
     """The backend options as a scenario's ``agent:`` settings (``--closed-loop``)."""
-    if args.backend == "rules":
-        return [("backend", "rules")]
     pairs = [("backend", args.backend)]
+    if args.max_rounds is not None:
+        pairs.append(("max_rounds_per_step", str(args.max_rounds)))
+    if args.backend == "rules":
+        return pairs
     for key, value in _model_options(args).items():
         if key == "model_path":
             pairs.append(("model", str(value)))
@@ -240,7 +243,8 @@ def _suite(args: argparse.Namespace) -> int:
         seconds = sum(t.latency_s for t in result.turns)
         print(f"[{done:3}/{total}] {mark:5} {seconds:6.1f} s  {result.case.id}{why}", file=sys.stderr, flush=True)
 
-    config = agent_config(args.timeout_s or 120.0, args.max_rounds, args.extra_prompt or "")
+    max_rounds = args.max_rounds or 2
+    config = agent_config(args.timeout_s or 120.0, max_rounds, args.extra_prompt or "")
     started = time.perf_counter()
     try:
         results = run_suite(suite, cases, backend_for, config, progress)
@@ -254,7 +258,7 @@ def _suite(args: argparse.Namespace) -> int:
     default_mode = {"openai": "native", "llamacpp": "json_schema"}.get(args.backend, "")
     about = {"backend": ("rules+" if args.rules_first else "") + args.backend,
              "model": str(args.model_path or args.model or ""), "tool_mode": args.tool_mode or default_mode,
-             "threads": args.threads, "max_tokens": args.max_tokens, "max_rounds": args.max_rounds,
+             "threads": args.threads, "max_tokens": args.max_tokens, "max_rounds": max_rounds,
              "suite": str(suite.path), "wall_s": round(time.perf_counter() - started, 1)}
     summary = summarise(results, suite.categories, about)
     print(table(summary))

@@ -75,6 +75,25 @@ def test_options_that_do_not_apply_are_one_line(capsys, argv, complaint):
     assert complaint in _one_line_error(capsys)
 
 
+def test_closed_loop_settings_reach_the_scenarios_agent():
+    from agentic_mpc.agent_eval.closed_loop import SCENARIO_1
+    from agentic_mpc.cli import build_parser
+    from agentic_mpc.commands import with_agent_settings
+    from agentic_mpc.commands.eval_agent import _agent_settings
+    from agentic_mpc.scenario.schema import load_scenario
+
+    scenario = load_scenario(SCENARIO_1).variant(None)
+    parser = build_parser()
+    for argv, rounds in ((["--max-rounds", "1"], 1), ([], scenario.agent.max_rounds_per_step)):
+        args = parser.parse_args(["eval-agent", "--closed-loop", *argv])
+        assert with_agent_settings(scenario, _agent_settings(args)).agent.max_rounds_per_step == rounds
+    args = parser.parse_args(["eval-agent", "--closed-loop", "--backend", "openai", "--model", "qwen",
+                              "--tool-mode", "native", "--max-rounds", "1", "--max-tokens", "160"])
+    agent = with_agent_settings(scenario, _agent_settings(args)).agent
+    assert (agent.backend, agent.model, agent.tool_mode, agent.max_rounds_per_step, agent.max_tokens) == (
+        "openai", "qwen", "native", 1, 160)
+
+
 def test_an_unknown_backend_is_refused_by_argparse(capsys):
     with pytest.raises(SystemExit) as exited:
         main(["eval-agent", "--backend", "gpt"])
