@@ -87,20 +87,22 @@ def corners(x: float, y: float, heading: float, length: float, width: float) -> 
 
 
 def boxes_overlap(a: Footprint, b: Footprint) -> bool:
-    """Separating-axis test of two oriented rectangles; touching counts as contact."""
+    """Separating-axis test of two oriented rectangles; touching counts as contact.
+
+    On each of the four edge directions the two boxes' projections are apart when the centres' distance along
+    it exceeds the sum of the half extents (a box's half extent along a direction at angle t to its heading:
+    half length |cos t| + half width |sin t|). Closed form: it runs for every near vehicle every step."""
+    dx, dy = b.x_m - a.x_m, b.y_m - a.y_m
     reach = 0.5 * (math.hypot(a.length_m, a.width_m) + math.hypot(b.length_m, b.width_m))
-    if (a.x_m - b.x_m) ** 2 + (a.y_m - b.y_m) ** 2 > reach * reach:
+    if dx * dx + dy * dy > reach * reach:
         return False
-    ca = corners(a.x_m, a.y_m, a.heading_rad, a.length_m, a.width_m)
-    cb = corners(b.x_m, b.y_m, b.heading_rad, b.length_m, b.width_m)
-    for heading in (a.heading_rad, b.heading_rad):
-        c, s = math.cos(heading), math.sin(heading)
-        for ax, ay in ((c, s), (-s, c)):
-            pa = [x * ax + y * ay for x, y in ca]
-            pb = [x * ax + y * ay for x, y in cb]
-            if max(pa) < min(pb) or max(pb) < min(pa):
-                return False
-    return True
+    ca, sa, cb, sb = math.cos(a.heading_rad), math.sin(a.heading_rad), math.cos(b.heading_rad), math.sin(b.heading_rad)
+    cos_ab, sin_ab = abs(ca * cb + sa * sb), abs(ca * sb - sa * cb)  # of the angle between the headings
+    la, wa, lb, wb = 0.5 * a.length_m, 0.5 * a.width_m, 0.5 * b.length_m, 0.5 * b.width_m
+    return not (abs(dx * ca + dy * sa) > la + lb * cos_ab + wb * sin_ab
+                or abs(dy * ca - dx * sa) > wa + lb * sin_ab + wb * cos_ab
+                or abs(dx * cb + dy * sb) > lb + la * cos_ab + wa * sin_ab
+                or abs(dy * cb - dx * sb) > wb + la * sin_ab + wa * cos_ab)
 
 
 def _point_to_segment_m(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:

@@ -98,6 +98,28 @@ def test_contact_axis_of_a_turned_corner_is_the_one_closing_in():
     assert contact_axis(before, now) == "sideways"
 
 
+def test_the_box_test_agrees_with_polygon_intersection():
+    from shapely.geometry import Polygon
+
+    from agentic_mpc.world.collisions import corners
+
+    def polygon(box: Box) -> Polygon:
+        return Polygon(corners(box.x_m, box.y_m, box.heading_rad, box.length_m, box.width_m))
+
+    rng = __import__("random").Random(11)
+    overlapping = 0
+    for _ in range(3000):
+        a = Box(0.0, 0.0, rng.uniform(-math.pi, math.pi), rng.uniform(4, 6), rng.uniform(1.6, 2.2))
+        b = Box(rng.uniform(-9, 9), rng.uniform(-6, 6), rng.uniform(-math.pi, math.pi), rng.uniform(4, 12),
+                rng.uniform(1.6, 2.6))
+        pa, pb = polygon(a), polygon(b)
+        if abs(pa.distance(pb)) < 1e-9 and pa.intersection(pb).area < 1e-9:
+            continue  # within rounding of touching: either answer is right
+        assert boxes_overlap(a, b) is pa.intersects(pb) is boxes_overlap(b, a)
+        overlapping += pa.intersects(pb)
+    assert 300 < overlapping < 2700  # both outcomes well represented
+
+
 def test_footprint_gap_is_the_distance_between_the_boxes():
     from shapely.geometry import Polygon
 
