@@ -3,11 +3,11 @@
 Every world reports contact in ``Observation.collisions`` (SUMO's own reports plus :func:`boxes_overlap` of the
 ego's box with every other vehicle's and obstacle's box: SUMO does not see the part of the ego that sticks
 into the next lane). A SUMO report counts only when the footprints confirm it (:func:`footprint_gap_m` within
-:data:`CONTACT_TOLERANCE_M`): SUMO checks in lane coordinates, and on a curve they can be a metre off, both
-ways; the others are kept as :class:`ReportWithoutContact`. :class:`CollisionTracker` turns those per-step reports into contact EPISODES: an episode
-with one vehicle starts at the first step in contact and lasts until the two have been apart for
-:data:`SEPARATION_S`; each episode is counted once and classified by :func:`classify` from the recent
-observations (positions, lane indices, lateral offsets; lateral speeds from successive observations).
+:data:`CONTACT_TOLERANCE_M`): SUMO checks in lane coordinates, and on a curve they can be a metre off; the
+others are kept as :class:`ReportWithoutContact`. :class:`CollisionTracker` turns the per-step reports into
+contact EPISODES: an episode with one vehicle starts at the first step in contact and lasts until the two have
+been apart for :data:`SEPARATION_S`; each episode is counted once and classified by :func:`classify` from the
+recent observations (positions, lane indices, lateral offsets; lateral speeds from successive observations).
 
 Causes and fault (the rule the metrics use, :data:`EGO_AT_FAULT`):
 
@@ -58,7 +58,7 @@ LATERAL_SPEED_MPS = 0.1
 CONTACT_TOLERANCE_M = 0.1
 """A collision SUMO reports is contact only when the two footprints come within this distance. SUMO checks in
 lane coordinates, and on a curve those place a car on the next lane up to a metre away from where it is:
-measured on the curved road, reports with the boxes 0.35-1.2 m apart (docs/traffic.md). Two samples 40 ms
+measured on the curved road, reports with the boxes 0.5-1.9 m apart (docs/traffic.md). Two samples 40 ms
 apart can straddle a glancing touch; 0.1 m leaves room for that."""
 SEPARATION_S = 0.5
 """Apart for this long ends an episode: a one-step flicker of the overlap is not a second collision."""
