@@ -312,7 +312,7 @@ class Agent:
                 reminded = True
                 continue
             agent_message = self._append(
-                Message("assistant", reply.text, tool_calls=calls, sim_time_s=self._now(frozen))
+                Message("assistant", reply.text, tool_calls=calls, sim_time_s=now())
             )
             report.text = reply.text
             if not calls:
@@ -320,7 +320,7 @@ class Agent:
                 break
             if made and all(call_key(call) in made for call in calls):
                 report.ended = "repeated"
-                self.transcript.record("repeated_calls", tau=agent_message.tau, sim_time_s=self._now(frozen),
+                self.transcript.record("repeated_calls", tau=agent_message.tau, sim_time_s=now(),
                                        calls=[call.describe() for call in calls])
                 break
             failures = 0
@@ -353,7 +353,7 @@ class Agent:
         logger.log(level, "agent step tau %d-%d ended (%s): %d tool call(s), %d error(s)", report.first_tau,
                    report.last_tau, report.ended, len(report.tool_calls), len(report.errors))
         self.transcript.record(
-            "step_end", tau=report.last_tau, sim_time_s=self._now(frozen), ended=report.ended,
+            "step_end", tau=report.last_tau, sim_time_s=now(), ended=report.ended,
             applied=report.applied_calls, errors=report.errors,
         )
         return report
