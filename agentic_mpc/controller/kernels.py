@@ -10,7 +10,11 @@ hot loop (measured 4-10x faster, see benchmarks/README.md):
   where seven terms are exact to 1e-16;
 - the heading is carried as (cos phi, sin phi) and rotated by the small heading increment each step
   (series exact to 1e-15 for |dphi| <= 0.1 rad, i.e. speeds up to about 80 m/s), with a first-order
-  renormalisation so it stays a unit vector at any speed.
+  renormalisation so it stays a unit vector at any speed;
+- of the fast-math flags only ``contract`` (a multiply and an add fused into one FMA): it is what made the
+  kernel fast (without it 1.2x slower; with it 1.05x of full fast-math, benchmarks/bench_versus_commit.py),
+  and an FMA rounds the same on every CPU that has one. Reassociation, approximate functions and
+  reciprocals could round differently per instruction set, so none is allowed (docs/reproducibility.md).
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ import numpy as np
 from agentic_mpc.primitives.base import FusedArrays
 from agentic_mpc.vehicle import VehicleParams
 
-_JIT = {"fastmath": True, "error_model": "numpy", "cache": True, "nogil": True}
+_JIT = {"fastmath": {"contract"}, "error_model": "numpy", "cache": True, "nogil": True}  # why: the docstring
 
 
 def pack_params(params: VehicleParams) -> np.ndarray:

@@ -117,8 +117,10 @@ class FourierMPPI:
         if self._fast:  # the same arithmetic, compiled (tests/controller/test_mppi.py compares the two)
             kernels.assemble_samples(self._compiled_noise_map, self._noise, self.mean, c.antithetic, c.include_mean, z)
             return z
-        if self._noise_map is not None:
-            np.matmul(self._noise_map, self._noise, out=self._scaled)
+        if self._noise_map is not None:  # noise_map @ noise in a fixed order: no BLAS (docs/reproducibility.md)
+            self._scaled[...] = 0.0
+            for j in range(c.coefficients):
+                self._scaled += self._noise_map[:, :, j, None] * self._noise[:, None, j, :]
         else:
             np.multiply(self._noise, self.std[:, :, None], out=self._scaled)
         if c.antithetic:
@@ -205,7 +207,7 @@ class FourierMPPI:
             weighting_ = self.weights(costs, self.temperature)
             if weighting_.weights is None:
                 return weighting_, self.mean
-            return weighting_, np.einsum("s,ics->ic", weighting_.weights, z)
+            return weighting_, (z * weighting_.weights).sum(axis=-1)  # not einsum: its SIMD order is the CPU's
         optimum = np.empty((2, c.coefficients))
         low, high = c.ess_band if c.ess_band is not None else (0.0, 0.0)
         found, cost_min, temperature, ess = weighting.weigh_and_average(
@@ -238,7 +240,7 @@ class FourierMPPI:
             temperature, _ = weighting.temperature_for_band(shifted, temperature, low * len(costs), high * len(costs))
         weights = np.exp(-shifted / temperature)
         weights /= weights.sum()
-        return Weighting(weights, cost_min, float(temperature), float(1.0 / np.dot(weights, weights)))
+        return Weighting(weights, cost_min, float(temperature), float(1.0 / np.sum(weights * weights)))
 
 
 @dataclass(frozen=True, slots=True)

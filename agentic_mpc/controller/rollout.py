@@ -9,8 +9,14 @@ from agentic_mpc.vehicle import STEER_LIMIT, VehicleParams, split_throttle_brake
 
 
 def synthesise(z: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """Input sequences of all samples, (H, S), from coefficients (2L+1, S) and the basis (2L+1, H)."""
-    return basis.T @ z
+    """Input sequences of all samples, (H, S), from coefficients (2L+1, S) and the basis (2L+1, H).
+
+    Row by row rather than ``basis.T @ z``: a BLAS product's summation order, and so its last bit, depends on
+    the CPU's kernel; elementwise products summed in a fixed order do not (docs/reproducibility.md)."""
+    sequences = basis[0][:, None] * z[0][None, :]
+    for row in range(1, basis.shape[0]):
+        sequences += basis[row][:, None] * z[row][None, :]
+    return sequences
 
 
 def rollout(

@@ -109,12 +109,18 @@ class Mandatory(Primitive):
             edges.append((s.road_right_edge, -1.0))
         leaders = s.leaders if self.time_gap_weight > 0.0 else ()
         # The gap now (from the first stage's contact point), where the wanted gap may start from.
-        starts = tuple(
-            max(self.standstill_gap_m, float(leader.tangents[0] @ (leader.contact_points[0] - context.state[:2])))
-            for leader in leaders
-        )
+        x_m, y_m = context.state[0], context.state[1]
+        starts = tuple(max(self.standstill_gap_m, _gap_along_path_m(leader, x_m, y_m)) for leader in leaders)
         return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
                                  starts, context.dt_s)
+
+
+def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
+    """``tangents[0] . (contact_points[0] - p)`` spelled out as the fused kernel spells it: ``@`` on two
+    2-vectors is a BLAS call whose kernel, and so the last bit, depends on the CPU (docs/reproducibility.md)."""
+    tx, ty = float(leader.tangents[0, 0]), float(leader.tangents[0, 1])
+    lx, ly = float(leader.contact_points[0, 0]), float(leader.contact_points[0, 1])
+    return tx * (lx - float(x_m)) + ty * (ly - float(y_m))
 
 
 @dataclass(frozen=True, slots=True)

@@ -23,6 +23,9 @@ logger = logging.getLogger(__name__)
 
 def build_world(scenario: Scenario) -> World:
     """The scenario's world, started (SUMO is launched here for a SUMO world)."""
+    from agentic_mpc.reproducibility import warn_once
+
+    warn_once()  # where identical numbers across machines cannot be promised, the run's log says so
     if scenario.plain_world is not None:
         from agentic_mpc.world.plain import PlainWorld
 
