@@ -8,7 +8,7 @@ import importlib
 import os
 import sys
 
-COMMANDS = ("run", "batch", "check", "plot", "replay", "demo", "ask", "eval_agent", "serve", "bench")
+COMMANDS = ("run", "batch", "check", "scenarios", "plot", "replay", "demo", "ask", "eval_agent", "serve", "bench")
 """Command modules under agentic_mpc.commands, in the order ``--help`` lists them."""
 
 

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agentic_mpc.agent_eval.suite import REPO_ROOT
+from agentic_mpc.shipped import scenarios_dir
 
-SCENARIO_1 = REPO_ROOT / "scenarios" / "paper_steering_preference.yaml"
-SCENARIO_2 = REPO_ROOT / "scenarios" / "paper_emergency_response.yaml"
+SCENARIO_1 = scenarios_dir() / "paper_steering_preference.yaml"
+SCENARIO_2 = scenarios_dir() / "paper_emergency_response.yaml"
 
 
 @dataclass(frozen=True, slots=True)

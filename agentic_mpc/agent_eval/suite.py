@@ -6,7 +6,7 @@ File layout::
 
     version: 1
     worlds:                      # the roads a case starts on, by name
-      lefthand: {scenario: scenarios/paper_steering_preference_plain.yaml}
+      lefthand: {scenario: paper_steering_preference_plain}   # a shipped scenario, or a path
     categories:                  # name: what it measures
       side: steering preference around obstacles
     cases:
@@ -45,8 +45,8 @@ from typing import Any
 import yaml
 
 from agentic_mpc.agent_eval.expectations import NUMBER_TOLERANCE, CallSpec, Constraint, Turn, is_number
+from agentic_mpc.shipped import UnknownScenario, scenario_path
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_SUITE = Path(__file__).resolve().parent / "suite.yaml"
 _TOOL_NAME = re.compile(r"^[A-Za-z_][\w.-]{0,63}$")
 _CASE_ID = re.compile(r"^[A-Za-z0-9][\w.-]{0,79}$")
@@ -200,13 +200,17 @@ def _case(raw: dict[str, Any], worlds: dict[str, WorldRef], categories: dict[str
 
 
 def _resolve(path: str, suite_file: Path) -> Path:
+    """A world's scenario: a path (absolute, or relative to the suite file), else a shipped scenario's name
+    (``scenarios/NAME.yaml``, as suites said when they ran from a checkout, is the shipped NAME too)."""
     candidate = Path(path).expanduser()
     if candidate.is_absolute():
         return candidate
-    for base in (suite_file.parent, REPO_ROOT):
-        if (base / candidate).is_file():
-            return (base / candidate).resolve()
-    return suite_file.parent / candidate
+    if (suite_file.parent / candidate).is_file():
+        return (suite_file.parent / candidate).resolve()
+    try:
+        return scenario_path(candidate.name if candidate.parent == Path("scenarios") else path)
+    except UnknownScenario:
+        return suite_file.parent / candidate  # reported as missing by the caller
 
 
 def load_suite(path: str | Path | None = None) -> Suite:

@@ -23,6 +23,22 @@ positive_int = int_at_least(1)
 non_negative_int = int_at_least(0)
 
 
+def scenario_file(text: str):  # -> Path
+    """An argparse type: a scenario file's path, or a shipped scenario's name (``agentic-mpc scenarios``).
+    Which was used is said on stderr (stdout may be an MCP stream); an unknown name lists the known ones."""
+    import sys
+
+    from agentic_mpc.shipped import UnknownScenario, resolve
+
+    try:
+        resolved = resolve(text)
+    except UnknownScenario as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    if resolved.note:
+        print(resolved.note, file=sys.stderr)
+    return resolved.path
+
+
 def agent_setting(text: str) -> tuple[str, str]:
     """An argparse type for ``--agent KEY=VALUE`` (a scenario's ``agent:`` setting; VALUE is read as YAML)."""
     key, sep, value = text.partition("=")

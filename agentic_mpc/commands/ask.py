@@ -28,9 +28,10 @@ import logging
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import chat_options
+from agentic_mpc.commands import chat_options, scenario_file
+from agentic_mpc.shipped import scenarios_dir
 
-DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "paper_steering_preference_plain.yaml"
+DEFAULT_SCENARIO = scenarios_dir() / "paper_steering_preference_plain.yaml"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -62,7 +63,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "left in the paper's left-hand traffic)")
     parser.add_argument("--json", action="store_true", help="print only the JSON list of tool calls")
     parser.add_argument("--transcript", type=Path, default=None, help="write the agent's transcript (JSONL) here")
-    parser.add_argument("--scenario", type=Path, default=None,
+    parser.add_argument("--scenario", type=scenario_file, default=None,
                         help="start from this scenario's world and initial specification (default: the paper's Scenario 1)")
     parser.add_argument("--variant", default=None, help="with --scenario: the variant")
     parser.set_defaults(handler=run)

@@ -15,7 +15,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import non_negative_int, positive_int
+from agentic_mpc.commands import non_negative_int, positive_int, scenario_file
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report Ctrl-C
@@ -32,7 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "batch", help="run scenario files x variants x seeds, one process per run", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("files", nargs="+", type=Path, metavar="FILE", help="scenario YAML files")
+    parser.add_argument("files", nargs="+", type=scenario_file, metavar="FILE",
+                        help="scenario YAML files or shipped scenarios' names")
     parser.add_argument("--variants", nargs="+", type=_names, action="extend", metavar="V",
                         help="variants to run in every file (default: each file's variants, or base)")
     parser.add_argument("--trials", type=positive_int, required=True, metavar="N", help="seeds per variant")

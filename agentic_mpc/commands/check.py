@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
+
+from agentic_mpc.commands import scenario_file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("check", help="validate scenario files", description=__doc__)
-    parser.add_argument("files", nargs="+", type=Path, metavar="FILE")
+    parser.add_argument("files", nargs="+", type=scenario_file, metavar="FILE",
+                        help="scenario YAML files or shipped scenarios' names")
     parser.set_defaults(handler=run)
 
 
@@ -24,10 +26,10 @@ def run(args: argparse.Namespace) -> int:
     failed = False
     for file in args.files:
         try:
-            scenario_file = load_scenario(file)
+            loaded = load_scenario(file)
         except ScenarioFileError as error:
             failed = True
             print(error, file=sys.stderr)
             continue
-        print(f"{file}: ok ({scenario_file.base.name}; variants: {', '.join(scenario_file.variant_names)})")
+        print(f"{file}: ok ({loaded.base.name}; variants: {', '.join(loaded.variant_names)})")
     return 2 if failed else 0

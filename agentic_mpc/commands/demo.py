@@ -11,16 +11,18 @@ import argparse
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import non_negative_int, positive_int
+from agentic_mpc.commands import non_negative_int, positive_int, scenario_file
+from agentic_mpc.shipped import scenarios_dir
 
-DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "paper_steering_preference_plain.yaml"
+DEFAULT_SCENARIO = scenarios_dir() / "paper_steering_preference_plain.yaml"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("demo", help="the paper's obstacle scenario without traffic", description=__doc__)
     parser.add_argument("--trials", type=positive_int, default=10, help="seeds per variant (the paper ran 10)")
     parser.add_argument("--first-seed", type=non_negative_int, default=0)
-    parser.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="a plain-world scenario file")
+    parser.add_argument("--scenario", type=scenario_file, default=DEFAULT_SCENARIO,
+                        help="a plain-world scenario file or shipped scenario's name")
     parser.add_argument("--out", type=Path, default=Path("out/obstacle_demo"), help="output directory")
     parser.set_defaults(handler=run)
 

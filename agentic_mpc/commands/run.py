@@ -10,12 +10,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import agent_setting, non_negative_int, with_agent_settings
+from agentic_mpc.commands import agent_setting, non_negative_int, scenario_file, with_agent_settings
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("run", help="run one scenario", description=__doc__)
-    parser.add_argument("file", type=Path, metavar="FILE", help="scenario YAML")
+    parser.add_argument("file", type=scenario_file, metavar="FILE", help="scenario YAML, or a shipped scenario's name")
     parser.add_argument("--variant", default=None, help="variant name (default: the base scenario)")
     parser.add_argument("--seed", type=non_negative_int, default=None, help="seed (default: the scenario's)")
     parser.add_argument("--out", type=Path, default=None, help="output directory (default: out/<scenario>/<variant>/seed-<N>)")

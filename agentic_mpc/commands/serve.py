@@ -42,9 +42,10 @@ import sys
 import threading
 from pathlib import Path
 
-from agentic_mpc.commands import agent_setting, with_agent_settings
+from agentic_mpc.commands import agent_setting, scenario_file, with_agent_settings
+from agentic_mpc.shipped import scenarios_dir
 
-DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "plain_world_traffic.yaml"
+DEFAULT_SCENARIO = scenarios_dir() / "plain_world_traffic.yaml"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -57,8 +58,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", nargs="?", type=Path, default=None, metavar="SCENARIO",
-                        help="scenario YAML to run (default: scenarios/plain_world_traffic.yaml, no SUMO)")
+    parser.add_argument("scenario", nargs="?", type=scenario_file, default=None, metavar="SCENARIO",
+                        help="scenario YAML or a shipped scenario's name (default: plain_world_traffic, no SUMO)")
     parser.add_argument("--variant", default=None, help="with SCENARIO: the variant (default: the base scenario)")
     parser.add_argument("--out", type=Path, default=None, help="with SCENARIO: where the run's files go")
     parser.add_argument("--agent", type=agent_setting, action="append", default=[], metavar="KEY=VALUE",

@@ -1,17 +1,17 @@
 """Ready-made co-simulation configs for the paper's scenarios and the traffic experiments.
 
-The nets and route files live in the repository's ``sumo_nets/`` folder (``AGENTIC_MPC_SUMO_NETS``
-overrides where). Every function returns a plain :class:`~agentic_mpc.sumo.config.SumoConfig`; change it
+The nets and route files are the shipped ones (:func:`agentic_mpc.shipped.nets_dir`;
+``AGENTIC_MPC_SUMO_NETS`` overrides where). Every function returns a plain :class:`~agentic_mpc.sumo.config.SumoConfig`; change it
 with ``config.replace(...)`` (validated). The seed is the run's: give it to the world and the loop.
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
+from agentic_mpc.shipped import nets_dir
 from agentic_mpc.sumo.config import (
     EgoStart,
     RescueLanes,
@@ -22,10 +22,6 @@ from agentic_mpc.sumo.config import (
 )
 
 
-def nets_dir() -> Path:
-    """The folder with the nets and route files."""
-    override = os.environ.get("AGENTIC_MPC_SUMO_NETS")
-    return Path(override) if override else Path(__file__).resolve().parents[2] / "sumo_nets"
 
 
 def net_files(name: str, lefthand: bool = False) -> tuple[Path, Path]:
