@@ -12,19 +12,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-ONE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
+from worktree import REPO, checkout, environment
 
 
 def bench(tree: Path, args: argparse.Namespace) -> dict:
-    env = dict(os.environ, **ONE_THREAD, PYTHONPATH=str(tree))  # the tree's package before the installed one
+    env = environment(tree)
     command = [sys.executable, "-m", "agentic_mpc", "bench", "--json", "--horizon", str(args.horizon),
                "--samples", str(args.samples), "--steps", str(args.steps), "--backend", args.backend]
     return json.loads(subprocess.run(command, check=True, capture_output=True, text=True, env=env, cwd=tree).stdout)
@@ -39,25 +36,19 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=500)
     parser.add_argument("--backend", default="fast", choices=("fast", "reference"))
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as scratch:
-        old = Path(scratch) / "old"
-        subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(old), args.base],
-                       check=True, capture_output=True)
-        try:
-            trees = {"old": old, "new": REPO}
-            for tree in trees.values():
-                bench(tree, args)  # compile and fill each tree's Numba cache outside the timed rounds
-            medians: dict[str, list[float]] = {name: [] for name in trees}
-            for round_ in range(args.rounds):
-                for name, tree in trees.items():
-                    medians[name].append(bench(tree, args)["median_ms"])
-                print(json.dumps({"round": round_, **{f"{name}_median_ms": m[-1] for name, m in medians.items()}}))
-            old_ms, new_ms = statistics.median(medians["old"]), statistics.median(medians["new"])
-            print(json.dumps({"base": args.base, "horizon": args.horizon, "samples": args.samples,
-                              "backend": args.backend, "old_median_ms": old_ms, "new_median_ms": new_ms,
-                              "ratio_new_over_old": round(new_ms / old_ms, 3)}))
-        finally:
-            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(old)], capture_output=True)
+    with checkout(args.base) as old:
+        trees = {"old": old, "new": REPO}
+        for tree in trees.values():
+            bench(tree, args)  # compile and fill each tree's Numba cache outside the timed rounds
+        medians: dict[str, list[float]] = {name: [] for name in trees}
+        for round_ in range(args.rounds):
+            for name, tree in trees.items():
+                medians[name].append(bench(tree, args)["median_ms"])
+            print(json.dumps({"round": round_, **{f"{name}_median_ms": m[-1] for name, m in medians.items()}}))
+        old_ms, new_ms = statistics.median(medians["old"]), statistics.median(medians["new"])
+        print(json.dumps({"base": args.base, "horizon": args.horizon, "samples": args.samples,
+                          "backend": args.backend, "old_median_ms": old_ms, "new_median_ms": new_ms,
+                          "ratio_new_over_old": round(new_ms / old_ms, 3)}))
 
 
 if __name__ == "__main__":

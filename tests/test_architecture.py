@@ -10,15 +10,20 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "agentic_mpc"
 
 FORBIDDEN = {
-    # layer: what it must not import
-    "controller": ("world", "sumo", "mcp", "agent", "scenario", "run", "batch", "commands"),
-    "primitives": ("controller", "world", "sumo", "mcp", "agent", "scenario", "run", "batch", "commands"),
-    "world": ("sumo", "mcp", "agent", "scenario", "run", "batch", "commands"),
-    "sumo": ("mcp", "agent", "scenario", "run", "batch", "commands", "controller"),
-    "mcp": ("sumo", "agent", "scenario", "run", "batch", "commands", "controller"),
-    "agent": ("mcp.server", "mcp.tools", "sumo", "world.plain", "scenario", "run", "batch", "commands", "controller"),
-    "run": ("sumo", "scenario.runner", "batch", "commands"),
-    "batch": ("sumo", "mcp", "agent", "run", "controller", "world", "commands"),
+    # layer: what it must not import (docs/architecture.md draws the same)
+    "controller": ("world", "sumo", "mcp", "agent", "scenario", "run", "batch", "commands", "plots", "replay"),
+    "primitives": ("controller", "world", "sumo", "mcp", "agent", "scenario", "run", "batch", "commands", "plots",
+                   "replay"),
+    "world": ("sumo", "mcp", "agent", "scenario", "run", "batch", "commands", "controller", "plots", "replay"),
+    "sumo": ("mcp", "agent", "scenario", "run", "batch", "commands", "controller", "plots", "replay"),
+    "mcp": ("sumo", "agent", "scenario", "run", "batch", "commands", "controller", "plots", "replay"),
+    "agent": ("mcp.server", "mcp.tools", "mcp.tool_table", "mcp.resources", "mcp.control_server", "sumo",
+              "world.plain", "scenario", "run", "batch", "commands", "controller", "plots", "replay"),
+    "run": ("sumo", "scenario", "batch", "commands", "plots", "replay"),
+    "plots": ("replay", "scenario", "batch", "commands", "mcp", "agent", "controller", "run.loop", "run.recorder"),
+    "replay": ("scenario", "batch", "commands", "sumo", "run.loop", "run.recorder"),
+    "batch": ("sumo", "mcp", "agent", "controller", "world", "commands", "plots", "replay", "run.loop",
+              "run.recorder", "run.metrics", "run.comfort", "run.timeline"),
 }
 
 
@@ -41,6 +46,35 @@ def test_imports_point_one_way(layer):
         if any(name == bad or name.startswith(bad + ".") for bad in FORBIDDEN[layer])
     ]
     assert not wrong, "\n".join(wrong)
+
+
+def package_graph() -> dict[str, set[str]]:
+    """Which top-level unit of the package (a subpackage or a module) imports which, lazy imports included."""
+    graph: dict[str, set[str]] = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(PACKAGE).parts
+        unit = parts[0] if len(parts) > 1 else path.stem
+        for name in imports_of(path):
+            target = name.split(".")[0]
+            if target != unit:
+                graph.setdefault(unit, set()).add(target)
+    return graph
+
+
+def test_no_two_packages_import_each_other():
+    graph = package_graph()
+
+    def reaches(start: str) -> set[str]:
+        seen, todo = set(), [start]
+        while todo:
+            for target in graph.get(todo.pop(), ()):
+                if target not in seen:
+                    seen.add(target)
+                    todo.append(target)
+        return seen
+
+    cycles = sorted({tuple(sorted((a, b))) for a in graph for b in graph[a] if a in reaches(b)})
+    assert not cycles, f"import cycles between: {cycles}"
 
 
 def test_only_the_bridge_imports_libsumo():

@@ -16,14 +16,17 @@ from matplotlib.patches import Polygon
 
 from agentic_mpc import plots
 from agentic_mpc.cli import main
-from agentic_mpc.commands.plot import lanes_of, recorded_obstacles
 from agentic_mpc.geometry import LanePath
+from agentic_mpc.plots import demo_figures, drawing, figures
+from agentic_mpc.plots.demo_figures import _draw_lanes
+from agentic_mpc.plots.drawing import footprint, road_lines
+from agentic_mpc.plots.places import find_events, zoom_windows
+from agentic_mpc.plots.runs import plotted_run
 from agentic_mpc.primitives import Circle
-from agentic_mpc.run.recorder import EVENT_COLUMNS, TRAFFIC_COLUMNS
-from agentic_mpc.scenario.metrics import MetricsRecorder, ObstacleTrack
+from agentic_mpc.run.files import EVENT_COLUMNS, TRAFFIC_COLUMNS
+from agentic_mpc.run.metrics import MetricsRecorder, ObstacleTrack
 from agentic_mpc.world.lanes import RoadLanes
 
-REPO = Path(__file__).resolve().parents[1]
 PLAIN_WORLD = {"road": {"start_x_m": -20.0, "length_m": 420.0}, "obstacles": [{"id": "obstacle", "x_m": 45.0, "y_m": 0.0}]}
 
 
@@ -88,7 +91,7 @@ def test_one_palette_paper_colours_first_then_the_others_in_order():
 @pytest.mark.parametrize("width", [3.2, 4.0])
 def test_road_edges_are_the_outermost_lanes_shifted_by_half_the_measured_lane_width(width):
     fig, ax = plt.subplots()
-    plots._draw_road(ax, list(FakeWorld(width).lanes().lanes.values()))
+    _draw_lanes(ax, list(FakeWorld(width).lanes().lanes.values()))
     edges, centres = solid_and_dashed(ax)
     plt.close(fig)
     assert len(centres) == 3
@@ -97,7 +100,7 @@ def test_road_edges_are_the_outermost_lanes_shifted_by_half_the_measured_lane_wi
 
 def test_a_single_lane_gets_the_default_width():
     fig, ax = plt.subplots()
-    plots._draw_road(ax, [LanePath.straight((0.0, 0.0), (0.0, 100.0), name="north")])  # heading +y: left is -x
+    _draw_lanes(ax, [LanePath.straight((0.0, 0.0), (0.0, 100.0), name="north")])  # heading +y: left is -x
     edges, _ = solid_and_dashed(ax)
     plt.close(fig)
     assert sorted(float(edge[0, 0]) for edge in edges) == pytest.approx([-1.75, 1.75])
@@ -106,13 +109,13 @@ def test_a_single_lane_gets_the_default_width():
 def test_run_figure_draws_the_world_lanes_and_the_recorded_obstacles(tmp_path, monkeypatch):
     run = write_run(tmp_path / "run", variant_shift_m=2.0)
     metrics = MetricsRecorder(obstacles=[ObstacleTrack("o", (Circle(x_m=45.0, y_m=0.0, radius_m=2.0),), 45.0, 1)])
-    drawn, save = {}, plots._save
+    drawn, save = {}, drawing.save
 
     def keep(fig, path, dpi):
         drawn["fig"] = fig
         return save(fig, path, dpi)
 
-    monkeypatch.setattr(plots, "_save", keep)
+    monkeypatch.setattr(figures, "save", keep)
     path = plots.run_figure(run, FakeWorld(), metrics, title="synthetic")
     assert path == run / "trajectory.png" and path.stat().st_size > 10_000
     fig = drawn["fig"]
@@ -138,9 +141,9 @@ def test_batch_figures_per_scenario_with_the_road_from_road_of(tmp_path):
     write_run(tmp_path / "runs" / "roadless" / "v" / "seed-0")
     asked = []
 
-    def road_of(scenario_json: Path):
-        asked.append(scenario_json.parent.parent.parent.name)
-        return FakeWorld() if "steering" in str(scenario_json) else None
+    def road_of(run_dir: Path):
+        asked.append(run_dir.parent.parent.name)
+        return FakeWorld() if "steering" in str(run_dir) else None
 
     written = plots.batch_figures(tmp_path, road_of)
     assert [p.name for p in written] == ["roadless_trajectories.png", "roadless_timeseries.png",
@@ -164,13 +167,13 @@ def test_birds_eye_without_a_range_zooms_to_the_obstacle_and_draws_the_ego_where
     t = np.linspace(0.0, 20.0, 200)
     states = np.column_stack([15.0 * t, np.zeros_like(t), np.zeros_like(t), np.full_like(t, 15.0)])
     lanes = [LanePath.straight((0.0, 0.0), (400.0, 0.0)), LanePath.straight((0.0, 3.5), (400.0, 3.5))]
-    drawn, save = {}, plots._save
+    drawn, save = {}, drawing.save
 
     def keep(fig, path, dpi):
         drawn["ax"] = fig.axes[0]
         return save(fig, path, dpi)
 
-    monkeypatch.setattr(plots, "_save", keep)
+    monkeypatch.setattr(demo_figures, "save", keep)
     plots.birds_eye({"no_message": [states]}, lanes, [Circle(x_m=200.0, y_m=3.5, radius_m=2.0)], tmp_path / "b.png")
     x0, x1 = drawn["ax"].get_xlim()
     assert x0 <= 200.0 <= x1 and x1 - x0 < 100  # not the 300 m driven
@@ -178,17 +181,18 @@ def test_birds_eye_without_a_range_zooms_to_the_obstacle_and_draws_the_ego_where
     assert body.get_xy()[:4, 0].mean() == pytest.approx(200.0, abs=1.6)  # the ego alongside the obstacle
 
 
-def test_lanes_of_rebuilds_a_plain_world_and_a_sumo_road(tmp_path):
+def test_the_road_is_rebuilt_from_the_saved_scenario_of_a_plain_world_or_a_sumo_road(tmp_path):
     run = write_run(tmp_path / "runs" / "s" / "v" / "seed-0")
     write_scenario(run, "v", {"plain_world": PLAIN_WORLD})
-    plain = lanes_of(run / "scenario.json").lanes()
-    assert set(plain.lanes) == {"left", "center", "right"}
-    write_scenario(run, "v", {"simulation": {"net_file": str(REPO / "sumo_nets" / "straight.net.xml"), "road": "straight"}})
-    sumo = lanes_of(run / "scenario.json").lanes()
-    assert isinstance(sumo, RoadLanes) and sumo.speed_limit_mps > 0 and set(sumo.lanes) >= {"left", "right"}
+    assert set(plotted_run(run).road.lanes().lanes) == {"left", "center", "right"}
+    net = Path(__file__).resolve().parents[1] / "sumo_nets" / "straight.net.xml"
+    write_scenario(run, "v", {"simulation": {"net_file": str(net), "road": "straight"}})
+    sumo = plotted_run(run).road
+    assert isinstance(sumo.lanes(), RoadLanes) and sumo.lanes().speed_limit_mps > 0
+    assert set(sumo.lanes().lanes) >= {"left", "right"} and len(sumo.left_to_right) == len(sumo.widths_m)
     write_scenario(run, "v", {})
-    assert lanes_of(run / "scenario.json") is None
-    assert [len(t.circles) for t in recorded_obstacles(run).obstacles] == [1]
+    assert plotted_run(run).road is None
+    assert [len(o.discs) for o in plotted_run(run).obstacles] == [1]
 
 
 def test_plot_command_on_a_run_and_on_a_batch(tmp_path, capsys):
@@ -212,11 +216,18 @@ def test_nothing_imports_the_plots_at_package_import_time():
     assert result.stdout.split()[0] == "False"
 
 
-def test_zoom_windows_hold_the_obstacle_and_the_ambulance_pass_and_are_much_smaller_than_the_road(tmp_path):
-    from agentic_mpc.plot_panels import road_lines
-    from agentic_mpc.plot_zoom import find_events, read_run, zoom_windows
+def test_the_package_and_its_road_load_no_matplotlib_until_a_figure_is_asked_for():
+    # the replay page rebuilds the road through agentic_mpc.plots.road and draws in the browser
+    code = ("import sys, agentic_mpc.plots, agentic_mpc.plots.road, agentic_mpc.replay.data; "
+            "print('matplotlib' in sys.modules); from agentic_mpc.plots import run_figure; "
+            "print('matplotlib' in sys.modules, run_figure.__module__)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["False", "True", "agentic_mpc.plots.figures"]
 
-    run = read_run(write_run(tmp_path / "run", variant_shift_m=2.0, ambulance_speed_mps=30.0))  # passes at t = 4 s
+
+def test_zoom_windows_hold_the_obstacle_and_the_ambulance_pass_and_are_much_smaller_than_the_road(tmp_path):
+    run = plotted_run(write_run(tmp_path / "run", variant_shift_m=2.0, ambulance_speed_mps=30.0))  # passes at t = 4 s
     kinds = {e.kind: e for e in find_events(run)}
     assert kinds["ambulance passes"].t == pytest.approx(4.0, abs=0.6) and kinds["obstacle"].x == 45.0
     road = road_lines(list(FakeWorld().lanes().lanes.values()))
@@ -234,8 +245,6 @@ def test_zoom_windows_hold_the_obstacle_and_the_ambulance_pass_and_are_much_smal
 
 
 def test_zoom_windows_turn_with_a_diagonal_road_and_an_ambulance_held_up_behind_is_in_its_window(tmp_path):
-    from agentic_mpc.plot_zoom import find_events, read_run, zoom_windows
-
     run_dir = write_run(tmp_path / "run")  # the ambulance never passes: it is held up 22.5 m behind at the end
     angle = math.radians(30.0)
     for name, columns in (("trajectory.csv", ("x_m", "y_m")), ("traffic.csv", ("x_m", "y_m")),
@@ -245,7 +254,7 @@ def test_zoom_windows_turn_with_a_diagonal_road_and_an_ambulance_held_up_behind_
         table[columns[0]] = x * math.cos(angle) - y * math.sin(angle)
         table[columns[1]] = x * math.sin(angle) + y * math.cos(angle)
         table.to_csv(run_dir / name, index=False)
-    run = read_run(run_dir)
+    run = plotted_run(run_dir)
     held = next(e for e in find_events(run) if e.kind == "ambulance held up")
     windows = zoom_windows([run])
     window = next(w for w in windows if held in w.events)
@@ -257,8 +266,6 @@ def test_zoom_windows_turn_with_a_diagonal_road_and_an_ambulance_held_up_behind_
 
 
 def test_footprints_are_the_vehicles_real_rectangles_turned_with_their_heading():
-    from agentic_mpc.plot_panels import footprint
-
     fig, ax = plt.subplots()
     body, screen = footprint(ax, lambda xy: xy, 10.0, 5.0, math.pi / 2, 6.5, 2.2, "emergency")
     plt.close(fig)
@@ -272,15 +279,15 @@ def test_footprints_are_the_vehicles_real_rectangles_turned_with_their_heading()
 def test_batch_figure_has_a_row_of_zoomed_panels_per_variant(tmp_path, monkeypatch):
     for variant, shift in (("message_left", 2.0), ("message_right", -2.0)):
         write_run(tmp_path / "runs" / "steering" / variant / "seed-0", shift, ambulance_speed_mps=30.0)
-    figures, save = [], plots._save
+    drawn, save = [], drawing.save
 
     def keep(fig, path, dpi):
-        figures.append(fig)
+        drawn.append(fig)
         return save(fig, path, dpi)
 
-    monkeypatch.setattr(plots, "_save", keep)
+    monkeypatch.setattr(figures, "save", keep)
     written = plots.batch_figures(tmp_path, lambda _: FakeWorld())
-    trajectories = figures[0]
+    trajectories = drawn[0]
     panels = list(trajectories.axes[1:])
     columns = {round(ax.get_position().x0, 3) for ax in panels}
     assert len(panels) == 2 * len(columns) and len(columns) >= 1  # two variants x the places

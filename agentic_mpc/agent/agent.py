@@ -21,7 +21,7 @@ variable holding the server's bearer token, ``AgentConfig.headers`` adds any oth
 :mod:`agentic_mpc.mcp.protocol`, never the server's implementation. It runs in its own thread with its own
 event loop: the control loop never waits for it.
 
-Timing modes (``AgentConfig.timing``):
+Timing modes (``AgentConfig.mode``):
 
 - ``realtime``: a message is processed as it arrives; tool calls apply when they reach the server. How long
   the backend thinks is how long the car drives on the old specification.
@@ -156,8 +156,8 @@ class Agent:
                 self._client = client
                 await self._introduce(client)
                 self._ready.set()
-                listening = (asyncio.create_task(self._listen(client)) if self.config.watch_emergency_vehicles
-                             and self.config.timing == "realtime" else None)
+                listening = (asyncio.create_task(self._listen(client)) if self.config.observation_messages
+                             and self.config.mode == "realtime" else None)
                 while True:
                     item = await self._queue.get()
                     if item is None:
@@ -207,7 +207,7 @@ class Agent:
         system = self.history.append(
             Message(
                 "system",
-                system_prompt(initial, self.tools, self.config.system_prompt_extra, road=road),
+                system_prompt(initial, self.tools, self.config.extra_prompt, road=road),
                 data={"initial_specification": initial, "road": road, "tools": [t.to_openai() for t in self.tools]},
                 sim_time_s=self._now(None),
             )
@@ -229,7 +229,7 @@ class Agent:
         """Hand the agent a message. Realtime: returns at once. Lockstep: returns when the agent is idle again."""
         future: Future[StepReport] = Future()
         t = sim_time_s if sim_time_s is not None else self._now(None)
-        if self.config.timing == "lockstep" and (t is None or not math.isfinite(t)):
+        if self.config.mode == "lockstep" and (t is None or not math.isfinite(t)):
             raise ValueError("lockstep mode needs the sim time of every message (sim_time_s or sim_clock)")
         problem = check_message(text, self.config.max_message_chars)
         if problem is None and (self._closed or self._loop is None or self._queue is None):
@@ -247,7 +247,7 @@ class Agent:
             return future
         message = Message("user", text.replace("\x00", ""), source=source, sim_time_s=t)
         self._loop.call_soon_threadsafe(self._queue.put_nowait, (message, future))  # type: ignore[union-attr]
-        if self.config.timing == "lockstep":
+        if self.config.mode == "lockstep":
             future.result(timeout=self.config.lockstep_timeout_s)
         return future
 
@@ -259,7 +259,7 @@ class Agent:
             future.set_result([])
             return future
         self._loop.call_soon_threadsafe(self._queue.put_nowait, (WatchRequest(sim_time_s), future))
-        if self.config.timing == "lockstep":
+        if self.config.mode == "lockstep":
             future.result(timeout=self.config.lockstep_timeout_s)
         return future
 
@@ -289,7 +289,7 @@ class Agent:
         return stamped
 
     async def _run_step(self, incoming: Message) -> StepReport:
-        frozen = incoming.sim_time_s if self.config.timing == "lockstep" else None
+        frozen = incoming.sim_time_s if self.config.mode == "lockstep" else None
         apply_at = None if frozen is None else frozen + self.config.latency_s
         if self.config.situation and getattr(self.backend, "reads_situation", True) and self._client is not None:
             incoming = replace(incoming, context=await read_situation(self._client))

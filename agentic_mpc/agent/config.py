@@ -6,28 +6,29 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from agentic_mpc.agent.settings import AgentRunSettings
 
 
-class AgentConfig(BaseModel):
-    """How the agent runs."""
+class AgentConfig(AgentRunSettings):
+    """How the agent runs: the settings every agent has (:class:`AgentRunSettings`, from a scenario or the
+    command line: :meth:`AgentRunSettings.agent_config`) and what only the agent's own loop needs."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-    timing: Literal["realtime", "lockstep"] = "realtime"
-    latency_s: float = Field(1.0, ge=0, description="lockstep: the thinking time charged to every agent step")
-    max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step")
+    mode: Literal["lockstep", "realtime"] = Field(
+        "realtime", description="an Agent used on its own answers as messages come; a run's agent takes the "
+                                "scenario's mode (lockstep unless it says otherwise)")
     max_tool_calls_per_round: int = Field(8, ge=1, le=100)
     max_consecutive_errors: int = Field(3, ge=1, description="rounds in a row whose every tool call failed")
     backend_attempts: int = Field(3, ge=1, le=20, description="tries per backend answer before the step ends")
-    backend_timeout_s: float = Field(120.0, gt=0)
+    backend_timeout_s: float = Field(125.0, gt=0, description="one backend answer, at most (a language model's "
+                                                               "settings: its timeout_s + 5 s)")
     retry_backoff_s: float = Field(0.5, ge=0)
     tool_timeout_s: float = Field(10.0, gt=0)
     max_message_chars: int = Field(4000, ge=1)
     startup_timeout_s: float = Field(60.0, gt=0)
     lockstep_timeout_s: float = Field(600.0, gt=0)
     transcript_path: Path | None = None
-    system_prompt_extra: str = ""
     headers: dict[str, str] = Field(default_factory=dict, repr=False,
                                     description="HTTP (a URL server): extra request headers, e.g. Authorization")
     bearer_token_env: str | None = Field(
@@ -35,16 +36,6 @@ class AgentConfig(BaseModel):
                           "'Authorization: Bearer ...'; read when the agent connects, never stored)")
     situation: bool = Field(True, description="give each step the current situation read from MCP resources "
                                               "(backends that read it: the language models)")
-    restore_reminder: bool = Field(
-        False, description="a step whose answer calls no tool while the specification differs from the initial one "
-                          "gets one more round: that answer is set aside (transcript event restore_reminder), a "
-                          "note says how the specification differs and asks the model to restore it if the "
-                          "situation that needed the change is over, else to reply (once a step; backends that "
-                          "read the situation: the language models)")
-    watch_emergency_vehicles: bool = Field(
-        False, description="wake on an emergency vehicle approaching / passed, detected on sumo://emergency-"
-                           "vehicles (realtime: subscribed to its updates; lockstep: checked at watch())")
-    alert_distance_m: float = Field(80.0, gt=0, description="the watch: how far behind an emergency vehicle matters")
 
 
 @dataclass(frozen=True)

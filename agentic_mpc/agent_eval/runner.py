@@ -110,11 +110,10 @@ class EvalWorld:
         self.loop.close()
 
 
-def agent_config(timeout_s: float, max_rounds: int, extra_prompt: str = "") -> AgentConfig:
-    """The agent's settings for the suite: ``ask``'s (two backend attempts), at most ``max_rounds`` answers
-    per turn."""
-    return AgentConfig(timing="realtime", backend_attempts=2, retry_backoff_s=0.2, backend_timeout_s=timeout_s + 5.0,
-                       max_rounds_per_step=max_rounds, system_prompt_extra=extra_prompt)
+def suite_agent_config(settings: Any) -> AgentConfig:
+    """The agent's configuration for the suite from its settings (an ``AgentSettings``): realtime, and two
+    backend attempts, as ``ask`` has."""
+    return settings.agent_config(mode="realtime", backend_attempts=2, retry_backoff_s=0.2)
 
 
 def _check_tools(cases: Sequence[Case], listed: set[str], suite: Suite) -> None:

@@ -45,10 +45,10 @@ from typing import Any
 import yaml
 
 from agentic_mpc.agent_eval.expectations import NUMBER_TOLERANCE, CallSpec, Constraint, Turn, is_number
+from agentic_mpc.mcp.protocol import ToolName, is_tool_name
 from agentic_mpc.shipped import UnknownScenario, scenario_path
 
 DEFAULT_SUITE = Path(__file__).resolve().parent / "suite.yaml"
-_TOOL_NAME = re.compile(r"^[A-Za-z_][\w.-]{0,63}$")
 _CASE_ID = re.compile(r"^[A-Za-z0-9][\w.-]{0,79}$")
 
 
@@ -146,8 +146,9 @@ def _call(raw: Any) -> CallSpec:
         raise _Problem(f"unknown key(s) {sorted(extra)} in an expected call (tool, args)")
     tools = raw["tool"] if isinstance(raw["tool"], list) else [raw["tool"]]
     for tool in tools:
-        if not isinstance(tool, str) or not _TOOL_NAME.match(tool):
-            raise _Problem(f"not a tool name: {tool!r}")
+        if not isinstance(tool, str) or not is_tool_name(tool):
+            raise _Problem(f"not one of the controller's tools: {tool!r} (run_<lane>_lane, "
+                           f"{', '.join(ToolName)})")
     args = raw.get("args") or {}
     if not isinstance(args, dict):
         raise _Problem(f"args must be a mapping, got {args!r}")

@@ -2,6 +2,7 @@
 
 A run works in a staging directory (a dot-name next to its run directory) and becomes the run directory by
 one rename once its ``summary.csv`` is written. The batch's own ``summary.csv`` is rebuilt from the records.
+A record is read back with the run directory's one reader (:mod:`agentic_mpc.run.reader`).
 """
 
 from __future__ import annotations
@@ -17,8 +18,9 @@ from pathlib import Path
 from typing import Any
 
 from agentic_mpc.batch.planning import IDENTITY, PROVENANCE, BatchJob
+from agentic_mpc.run.files import SUMMARY as RUN_SUMMARY
+from agentic_mpc.run.reader import RunDirectory
 
-RUN_SUMMARY = "summary.csv"
 WORKER_LOG = "worker.log"
 _SUMMARY_EVERY_S = 1.0
 
@@ -57,13 +59,9 @@ def summary_columns(rows: list[Mapping[str, Any]]) -> list[str]:
 
 
 def read_record(run_dir: Path) -> dict[str, str] | None:
-    """The run's one-row summary, or None if the directory holds no complete record."""
-    try:
-        with open(run_dir / RUN_SUMMARY, encoding="utf-8", newline="") as handle:
-            rows = list(csv.DictReader(handle))
-    except (OSError, csv.Error, UnicodeDecodeError):
-        return None
-    return rows[0] if len(rows) == 1 and rows[0].get("status") else None
+    """The run's one-row summary, or None if the directory holds no complete record (a row with a status)."""
+    row = RunDirectory(run_dir).summary()
+    return row if row is not None and row.get("status") else None
 
 
 def record_run(record: Mapping[str, Any], staging: Path, final: Path) -> None:

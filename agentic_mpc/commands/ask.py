@@ -28,7 +28,7 @@ import logging
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import chat_options, scenario_file
+from agentic_mpc.commands import add_backend_flags, scenario_file
 from agentic_mpc.shipped import scenarios_dir
 
 DEFAULT_SCENARIO = scenarios_dir() / "paper_steering_preference_plain.yaml"
@@ -40,27 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("message", help="what the passenger says")
-    parser.add_argument("--backend", choices=("rules", "openai", "llamacpp"), default="rules",
-                        help="rules: offline rule-based stand-in (default); openai: an OpenAI-compatible LLM endpoint; "
-                             "llamacpp: a GGUF model in this process")
-    parser.add_argument("--base-url", default=None, help="openai: the endpoint's /v1 URL (default Ollama's)")
-    parser.add_argument("--model", default=None, help="openai: model name (default granite4:micro)")
-    parser.add_argument("--api-key-env", default="OPENAI_API_KEY", help="openai: environment variable with the API key")
-    parser.add_argument("--timeout-s", type=float, default=120.0, help="openai, llamacpp: seconds per answer")
-    parser.add_argument("--model-path", type=Path, default=None, help="llamacpp: the GGUF model file")
-    parser.add_argument("--threads", type=int, default=1, help="llamacpp: CPU threads (default 1)")
-    parser.add_argument("--ctx-size", type=int, default=8192, help="llamacpp: context size in tokens")
-    parser.add_argument("--tool-mode", choices=("native", "json_schema"), default=None,
-                        help="openai, llamacpp: native tool calling, or the answer constrained by a JSON schema of the "
-                             "tools (default: native for openai, json_schema for llamacpp)")
-    parser.add_argument("--temperature", type=float, default=None, help="openai, llamacpp: sampling temperature (0)")
-    parser.add_argument("--max-tokens", type=int, default=None, help="openai, llamacpp: tokens per answer (512)")
-    parser.add_argument("--extra-prompt", default="", help="appended to the agent's system prompt")
-    parser.add_argument("--extra-body", default=None, metavar="JSON",
-                        help='openai: merged into every request body, e.g. \'{"top_p": 0.9}\'')
-    parser.add_argument("--yield-lane", choices=("left", "right"), default=None,
-                        help="rules: where to pull over for emergency vehicles (default: the road edge side; "
-                             "left in the paper's left-hand traffic)")
+    add_backend_flags(parser)
     parser.add_argument("--json", action="store_true", help="print only the JSON list of tool calls")
     parser.add_argument("--transcript", type=Path, default=None, help="write the agent's transcript (JSONL) here")
     parser.add_argument("--scenario", type=scenario_file, default=None,
@@ -69,23 +49,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def _backend(args: argparse.Namespace):  # -> Backend
-    from agentic_mpc.agent.backends import make_backend
+def _settings(args: argparse.Namespace):  # -> AgentSettings
+    """The flags as the agent's settings (realtime: nothing advances the sim clock here)."""
+    from agentic_mpc.commands import flag_settings, validated_agent_settings
 
-    if args.backend == "rules":
-        return make_backend("rules", yield_lane=args.yield_lane or "left")
-    options = chat_options(args)
-    if args.backend == "llamacpp":
-        if args.model_path is None:
-            raise ValueError("--backend llamacpp needs --model-path (a GGUF model file)")
-        return make_backend("llamacpp", model_path=args.model_path, threads=args.threads, ctx_size=args.ctx_size,
-                            **options)
-    options.update(api_key_env=args.api_key_env or None, timeout_s=args.timeout_s)
-    if args.base_url:
-        options["base_url"] = args.base_url
-    if args.model:
-        options["model"] = args.model
-    return make_backend("openai", **options)
+    if args.backend == "llamacpp" and args.model_path is None:
+        raise ValueError("--backend llamacpp needs --model-path (a GGUF model file)")
+    return validated_agent_settings({**flag_settings(args), "mode": "realtime"})
 
 
 def _why_no_call(report) -> str:  # report: StepReport
@@ -100,7 +70,6 @@ def _why_no_call(report) -> str:  # report: StepReport
 
 
 def run(args: argparse.Namespace) -> int:
-    from agentic_mpc.agent import AgentConfig
     from agentic_mpc.run.loop import AgentSetup
     from agentic_mpc.scenario.runner import build_loop, build_world
     from agentic_mpc.scenario.schema import load_scenario
@@ -114,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
         print(error, file=sys.stderr)
         return 2
     try:  # before the world starts: a bad model file or a missing package is said at once
-        backend = None if args.backend == "rules" else _backend(args)
+        settings = _settings(args)
+        backend = None if args.backend == "rules" else settings.build_backend(lefthand=True)
     except (ValueError, ImportError) as error:
         print(f"agentic-mpc ask: the {args.backend} backend could not be set up: {error}", file=sys.stderr)
         return 2
@@ -123,11 +93,9 @@ def run(args: argparse.Namespace) -> int:
     except WorldError as error:
         print(f"agentic-mpc ask: the scenario's world could not start: {error}", file=sys.stderr)
         return 1
-    if args.yield_lane is None:
-        args.yield_lane = "left" if world.lanes().lefthand else "right"
-    config = AgentConfig(transcript_path=args.transcript, backend_attempts=2, retry_backoff_s=0.2,
-                         backend_timeout_s=args.timeout_s + 5.0, system_prompt_extra=args.extra_prompt)
-    with build_loop(scenario, world, agent=AgentSetup(backend or _backend(args), config)) as loop:
+    config = settings.agent_config(transcript_path=args.transcript, backend_attempts=2, retry_backoff_s=0.2)
+    backend = backend or settings.build_backend(world.lanes().lefthand)  # rules: the road edge to pull over to
+    with build_loop(scenario, world, agent=AgentSetup(backend, config)) as loop:
         report = loop.agent.deliver(args.message).result()
     calls = report.applied_calls
     if args.json:

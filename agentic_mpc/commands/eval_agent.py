@@ -32,10 +32,9 @@ import sys
 import time
 from pathlib import Path
 
-from agentic_mpc.commands import chat_options, non_negative_int, positive_int
+from agentic_mpc.commands import add_backend_flags, non_negative_int, positive_int
 
 PROG = "agentic-mpc eval-agent"
-_MODEL_OPTIONS = ("tool_mode", "temperature", "max_tokens", "extra_prompt", "extra_body")
 _ONLY_FOR = {"model_path": ("llamacpp",), "threads": ("llamacpp",), "ctx_size": ("llamacpp",),
              "base_url": ("openai",), "model": ("openai",), "api_key_env": ("openai",), "extra_body": ("openai",),
              **{name: ("openai", "llamacpp") for name in ("tool_mode", "temperature", "max_tokens", "timeout_s",
@@ -49,25 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--suite", type=Path, default=None, help="the suite YAML (default: the shipped one)")
-    parser.add_argument("--backend", choices=("rules", "openai", "llamacpp"), default="rules",
-                        help="rules: offline rule-based stand-in (default); openai: an OpenAI-compatible endpoint; "
-                             "llamacpp: a GGUF model in this process")
-    parser.add_argument("--base-url", default=None, help="openai: the endpoint's /v1 URL (default Ollama's)")
-    parser.add_argument("--model", default=None, help="openai: model name (default granite4:micro)")
-    parser.add_argument("--api-key-env", default=None, help="openai: environment variable with the API key")
-    parser.add_argument("--timeout-s", type=float, default=None, help="openai, llamacpp: seconds per answer (120)")
-    parser.add_argument("--model-path", type=Path, default=None, help="llamacpp: the GGUF model file")
-    parser.add_argument("--threads", type=positive_int, default=None, help="llamacpp: CPU threads (1)")
-    parser.add_argument("--ctx-size", type=positive_int, default=None, help="llamacpp: context size in tokens (8192)")
-    parser.add_argument("--tool-mode", choices=("native", "json_schema"), default=None,
-                        help="openai, llamacpp: native tool calling or output constrained by the tools' JSON schema "
-                             "(default: native for openai, json_schema for llamacpp)")
-    parser.add_argument("--temperature", type=float, default=None, help="openai, llamacpp: sampling temperature (0)")
-    parser.add_argument("--max-tokens", type=positive_int, default=None, help="openai, llamacpp: tokens per answer")
-    parser.add_argument("--extra-prompt", default=None, help="openai, llamacpp: appended to the system prompt")
-    parser.add_argument("--extra-body", default=None, metavar="JSON", help="openai: merged into every request body")
-    parser.add_argument("--yield-lane", choices=("left", "right"), default=None,
-                        help="rules: where to pull over (default: each world's road edge)")
+    add_backend_flags(parser)
     parser.add_argument("--rules-first", action="store_true",
                         help="openai, llamacpp: the rules backend answers what it understands, the model the rest")
     parser.add_argument("--max-rounds", type=positive_int, default=None,
@@ -105,40 +86,24 @@ def _check_options(args: argparse.Namespace) -> None:
                          "--per-category do not apply")
 
 
-def _model_options(args: argparse.Namespace) -> dict:
+def _settings(args: argparse.Namespace):  # -> AgentSettings
+    """The flags as the agent's settings, validated (agent/settings.py): a bad one is one line, exit 2."""
+    from agentic_mpc.commands import flag_settings, validated_agent_settings
+
     try:
-        options = chat_options(args)
+        settings = flag_settings(args)
+        if args.max_rounds is not None:
+            settings["max_rounds_per_step"] = args.max_rounds
+        return validated_agent_settings(settings)
     except ValueError as error:
-        raise InputError(str(error)) from None
-    if args.backend == "llamacpp":
-        options.update(model_path=args.model_path, threads=args.threads or 1, ctx_size=args.ctx_size or 8192)
-    else:
-        options["timeout_s"] = args.timeout_s or 120.0
-        if args.api_key_env is not None:
-            options["api_key_env"] = args.api_key_env or None
-        options.update({k: v for k, v in (("base_url", args.base_url), ("model", args.model)) if v})
-    return options
+        raise InputError(f"the {args.backend} backend could not be set up: {error}") from None
 
 
 def _agent_settings(args: argparse.Namespace) -> list[tuple[str, str]]:
-    """The backend options as a scenario's ``agent:`` settings (``--closed-loop``)."""
-    pairs = [("backend", args.backend)]
-    if args.max_rounds is not None:
-        pairs.append(("max_rounds_per_step", str(args.max_rounds)))
-    if args.backend == "rules":
-        return pairs
-    for key, value in _model_options(args).items():
-        if key == "model_path":
-            pairs.append(("model", str(value)))
-        elif key == "extra_body":
-            pairs.append((key, json.dumps(value)))
-        elif value is not None:
-            pairs.append((key, str(value)))
-    if args.extra_prompt:
-        pairs.append(("extra_prompt", args.extra_prompt))
-    if args.timeout_s is not None:
-        pairs.append(("timeout_s", str(args.timeout_s)))
-    return list(dict(pairs).items())  # a repeated key (timeout_s for openai) once, the last value
+    """The flags as ``--agent KEY=VALUE`` pairs for the scenarios' ``agent:`` (``--closed-loop``)."""
+    given = _settings(args).model_dump(exclude_defaults=True)
+    given["backend"] = args.backend
+    return [(key, json.dumps(value) if isinstance(value, dict) else str(value)) for key, value in given.items()]
 
 
 def _fail(message: str, status: int = 2) -> int:
@@ -192,7 +157,7 @@ def _closed_loop(args: argparse.Namespace) -> int:
 def _suite(args: argparse.Namespace) -> int:
     from agentic_mpc.agent.backends import make_backend
     from agentic_mpc.agent_eval.report import summarise, table, turn_row, write
-    from agentic_mpc.agent_eval.runner import KeepOpen, agent_config, run_suite
+    from agentic_mpc.agent_eval.runner import KeepOpen, run_suite, suite_agent_config
     from agentic_mpc.agent_eval.suite import SuiteError, load_suite
     from agentic_mpc.scenario.yaml_source import ScenarioFileError
     from agentic_mpc.world.base import WorldError
@@ -203,18 +168,19 @@ def _suite(args: argparse.Namespace) -> int:
     except SuiteError as error:
         return _fail(str(error))
     model = None
+    settings = _settings(args)
     if args.backend != "rules":
         try:  # llamacpp: loaded once for the whole suite, each case's agent borrows it; openai: options checked
-            model = make_backend(args.backend, **_model_options(args))
+            model = settings.build_backend(lefthand=True)
         except (ValueError, ImportError) as error:
             return _fail(f"the {args.backend} backend could not be set up: {error}")
 
     def backend_for(lefthand: bool):  # -> Backend
-        rules = make_backend("rules", yield_lane=args.yield_lane or ("left" if lefthand else "right"))
+        rules = make_backend("rules", lefthand=lefthand, **({"yield_lane": args.yield_lane} if args.yield_lane else {}))
         if args.backend == "llamacpp":
             chosen = KeepOpen(model)
         elif args.backend == "openai":  # its HTTP client belongs to one event loop: one backend per agent
-            chosen = make_backend("openai", **_model_options(args))
+            chosen = settings.build_backend(lefthand)
         else:
             return rules
         if args.rules_first:
@@ -243,8 +209,7 @@ def _suite(args: argparse.Namespace) -> int:
         seconds = sum(t.latency_s for t in result.turns)
         print(f"[{done:3}/{total}] {mark:5} {seconds:6.1f} s  {result.case.id}{why}", file=sys.stderr, flush=True)
 
-    max_rounds = args.max_rounds or 2
-    config = agent_config(args.timeout_s or 120.0, max_rounds, args.extra_prompt or "")
+    config = suite_agent_config(settings.model_copy(update={"max_rounds_per_step": args.max_rounds or 2}))
     started = time.perf_counter()
     try:
         results = run_suite(suite, cases, backend_for, config, progress)
@@ -255,10 +220,10 @@ def _suite(args: argparse.Namespace) -> int:
     finally:
         if args.backend == "llamacpp":
             model.close()
-    default_mode = {"openai": "native", "llamacpp": "json_schema"}.get(args.backend, "")
     about = {"backend": ("rules+" if args.rules_first else "") + args.backend,
-             "model": str(args.model_path or args.model or ""), "tool_mode": args.tool_mode or default_mode,
-             "threads": args.threads, "max_tokens": args.max_tokens, "max_rounds": max_rounds,
+             "model": str(args.model_path or args.model or ""),
+             "tool_mode": getattr(settings, "effective_tool_mode", ""),
+             "threads": args.threads, "max_tokens": args.max_tokens, "max_rounds": config.max_rounds_per_step,
              "suite": str(suite.path), "wall_s": round(time.perf_counter() - started, 1)}
     summary = summarise(results, suite.categories, about)
     print(table(summary))

@@ -57,13 +57,14 @@ def run(args: argparse.Namespace) -> int:
     if args.gif is not None or args.mp4 is not None:
         return _animate(args)
     from agentic_mpc.replay import ReplayInputError, load_run, render_page
+    from agentic_mpc.run.files import REPLAY
 
     try:
         scene = load_run(args.directory)
     except ReplayInputError as error:
         print(f"agentic-mpc replay: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    out: Path = args.out if args.out is not None else args.directory / "replay.html"
+    out: Path = args.out if args.out is not None else args.directory / REPLAY
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(render_page(scene), encoding="utf-8")

@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from agentic_mpc.commands import agent_setting, non_negative_int, scenario_file, with_agent_settings
+from agentic_mpc.commands import CommandInputError, agent_setting, non_negative_int, scenario_file, scenario_for
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -27,20 +27,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from agentic_mpc.scenario.runner import run_scenario
-    from agentic_mpc.scenario.schema import load_scenario
-    from agentic_mpc.scenario.yaml_source import ScenarioFileError
 
     try:
-        scenario = load_scenario(args.file).variant(args.variant)
-    except ScenarioFileError as error:
+        scenario = scenario_for("run", args.file, args.variant, args.seed, args.agent)
+    except CommandInputError as error:
         print(error, file=sys.stderr)
-        return 2
-    if args.seed is not None:
-        scenario = scenario.with_seed(args.seed)
-    try:
-        scenario = with_agent_settings(scenario, args.agent)
-    except ValueError as error:
-        print(f"agentic-mpc run: {error}", file=sys.stderr)
         return 2
     out = args.out or Path("out") / scenario.name / scenario.variant / f"seed-{scenario.seed}"
     try:

@@ -38,10 +38,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"run it with: agentic-mpc run {written[0]}")
         return 0
     from agentic_mpc.scenario.schema import load_scenario
+    from agentic_mpc.worlds import WORLD_KINDS
 
     for name in shipped.scenario_names():
         loaded = load_scenario(shipped.scenario_path(name))
-        world = "SUMO" if loaded.base.simulation is not None else "plain Python"
+        world = WORLD_KINDS[loaded.base.world_kind].title
         print(f"{name}  [{world}]  variants: {', '.join(loaded.variant_names)}")
         if loaded.base.description:
             print(f"    {loaded.base.description}")

@@ -42,7 +42,7 @@ import sys
 import threading
 from pathlib import Path
 
-from agentic_mpc.commands import agent_setting, scenario_file, with_agent_settings
+from agentic_mpc.commands import CommandInputError, agent_setting, scenario_file, scenario_for
 from agentic_mpc.shipped import scenarios_dir
 
 DEFAULT_SCENARIO = scenarios_dir() / "plain_world_traffic.yaml"
@@ -182,23 +182,14 @@ def _interrupt(signum: int, frame: object) -> None:
 def serve_scenario(args: argparse.Namespace, listening: object = None) -> int:
     """A scenario in real time behind the MCP server; the host is the agent."""
     from agentic_mpc.scenario.runner import ScenarioRun
-    from agentic_mpc.scenario.schema import load_scenario
-    from agentic_mpc.scenario.yaml_source import ScenarioFileError
 
     try:
-        scenario = load_scenario(args.scenario or DEFAULT_SCENARIO).variant(args.variant)
-    except ScenarioFileError as error:
+        scenario = scenario_for("serve", args.scenario or DEFAULT_SCENARIO, args.variant, args.seed or None, args.agent)
+    except CommandInputError as error:
         print(error, file=sys.stderr)
         return 2
     if args.scenario is None:
         scenario = _with_ambulance_at(scenario, args.ambulance_at_s)
-    if args.seed:
-        scenario = scenario.with_seed(args.seed)
-    try:
-        scenario = with_agent_settings(scenario, args.agent)
-    except ValueError as error:
-        print(f"agentic-mpc serve: {error}", file=sys.stderr)
-        return 2
     if args.duration_s is not None:
         scenario = scenario.model_copy(update={"duration_s": args.duration_s})
     if args.view:  # the page's chat reaches the run's own agent, which must never hold up the car
@@ -260,7 +251,7 @@ def _with_ambulance_at(scenario: object, at_s: float) -> object:
         v.model_copy(update={"appear_at_s": at_s}) if v.emergency else v
         for v in world.vehicles if not (v.emergency and at_s < 0)
     )
-    return scenario.model_copy(update={"plain_world": world.model_copy(update={"vehicles": vehicles})})  # type: ignore[attr-defined]
+    return scenario.model_copy(update={"world": world.model_copy(update={"vehicles": vehicles})})  # type: ignore[attr-defined]
 
 
 def _run_quietly(run: object) -> None:

@@ -4,17 +4,18 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
+
+from agentic_mpc.frozen_config import FrozenConfig
 
 
-class MPPIConfig(BaseModel):
+class MPPIConfig(FrozenConfig):
     """Settings of :class:`~agentic_mpc.controller.mppi.FourierMPPI`.
 
     The paper fixes L = 4, S = 256 and the standard deviations; it gives neither the horizon nor the
     temperature. The defaults here were chosen by the closed-loop measurements in docs/cost-design.md.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     horizon: int = Field(50, ge=2, le=1000, description="prediction horizon H in steps (50 = 2 s)")
     samples: int = Field(256, ge=2, le=1_000_000, description="sampled coefficient vectors S")

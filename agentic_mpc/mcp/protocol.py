@@ -8,6 +8,9 @@ A client that knows this module needs nothing of the server's implementation:
   lanes, handedness, edge lane, speed limit, what yielding and resuming mean), the specification attached
   now (:data:`SPECIFICATION_URI`), the one the car started with (:data:`INITIAL_SPECIFICATION_URI`) and the
   primitive pool (:data:`POOL_URI`);
+- the tools' names (:class:`ToolName`, :func:`lane_tool_name`) and argument names: the server registers
+  its tools under these, and a client that calls one by name (the rules backend, the eval suite) says it
+  through them, never as a string of its own;
 - :data:`APPLY_AT_META_KEY`, the ``tools/call`` request ``_meta`` key that schedules a change at a sim time;
 - :func:`validate_arguments`, the check the server applies to every tool call against the tool's published
   input schema (a client may run it first to answer a bad call without a round trip).
@@ -18,7 +21,40 @@ It imports neither the MCP SDK nor anything of the tools.
 from __future__ import annotations
 
 import math
+from enum import StrEnum
 from typing import Any
+
+
+class ToolName(StrEnum):
+    """The tools that are not per lane (a member is its name as a ``str``)."""
+
+    SET_REFERENCE_SPEED = "set_reference_speed"
+    SET_PREFERRED_STEERING_DIRECTION = "set_preferred_steering_direction"
+    CLEAR_PREFERRED_STEERING_DIRECTION = "clear_preferred_steering_direction"
+
+
+def lane_tool_name(lane: str) -> str:
+    """The tool that drives on the ego road's lane ``lane`` (the paper's ``run_center_lane``, ...): one per
+    lane label the road has (:data:`ROAD_URI` lists them)."""
+    return f"run_{lane}_lane"
+
+
+def lane_of_tool(name: str) -> str | None:
+    """The lane label of a lane tool's name, or None for any other tool."""
+    if name.startswith("run_") and name.endswith("_lane") and len(name) > len("run__lane"):
+        return name[len("run_"):-len("_lane")]
+    return None
+
+
+def is_tool_name(name: str) -> bool:
+    """Whether ``name`` is one of the server's tool names (a lane tool for any lane label)."""
+    return name in ToolName.__members__.values() or lane_of_tool(name) is not None
+
+
+SPEED_ARGUMENT = "v_ref"
+"""The argument in m/s of the lane tools and ``set_reference_speed``, from 0 to the road's speed limit."""
+DIRECTION_ARGUMENT = "direction"
+"""The argument (``left`` or ``right``) of ``set_preferred_steering_direction``."""
 
 APPLY_AT_META_KEY = "agentic-mpc/apply_at_s"
 """Request ``_meta`` key: apply the tool call's change at this sim time (lockstep)."""

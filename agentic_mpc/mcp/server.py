@@ -59,12 +59,13 @@ MCP Inspector, command-line mode::
 
 # No `from __future__ import annotations`: the SDK reads the tool closures' annotations at runtime.
 import asyncio
+import inspect
 import json
 import logging
 import math
 import threading
 from collections.abc import Callable
-from typing import Annotated, Any, Literal
+from typing import Any
 
 import anyio.lowlevel
 from mcp.server.mcpserver import Context
@@ -72,7 +73,6 @@ from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.mcpserver.tools import Tool
 from mcp.server.subscriptions import ResourceUpdated, ServerEvent
 from mcp_types import CallToolResult, TextContent
-from pydantic import Field
 
 from agentic_mpc.mcp.control_server import ControlServer, ToolCallHook
 from agentic_mpc.mcp.protocol import (
@@ -87,6 +87,7 @@ from agentic_mpc.mcp.protocol import (
 )
 from agentic_mpc.mcp.resources import ObservationSource, register_resources, to_json
 from agentic_mpc.mcp.road import LaneIndex
+from agentic_mpc.mcp.tool_table import instances
 from agentic_mpc.mcp.tools import ControllerTools, ToolCallError
 
 logger = logging.getLogger(__name__)
@@ -219,64 +220,12 @@ class AgenticMPCServer:
         )
 
     def _tools(self) -> list[Tool]:
-        tools, vmax = self.tools, self.max_speed_mps
-        Speed = Annotated[
-            float,
-            Field(
-                ge=0.0,
-                le=vmax,
-                strict=True,
-                allow_inf_nan=False,
-                description=f"reference speed in m/s, from 0 (stop) to the road speed limit {vmax:g} m/s",
-            ),
-        ]
-        Side = Annotated[Literal["left", "right"], Field(description="the side to evade obstacles to")]
-
-        def lane_tool(lane: str) -> Callable[..., CallToolResult]:
-            def run_lane(v_ref: Speed, ctx: Context) -> CallToolResult:
-                return _run(lambda at: tools.run_lane(lane, v_ref, apply_at_s=at), ctx)
-
-            return run_lane
-
-        def set_reference_speed(v_ref: Speed, ctx: Context) -> CallToolResult:
-            return _run(lambda at: tools.set_reference_speed(v_ref, apply_at_s=at), ctx)
-
-        def set_preferred_steering_direction(direction: Side, ctx: Context) -> CallToolResult:
-            return _run(lambda at: tools.set_preferred_steering_direction(direction, apply_at_s=at), ctx)
-
-        def clear_preferred_steering_direction(ctx: Context) -> CallToolResult:
-            return _run(lambda at: tools.clear_preferred_steering_direction(apply_at_s=at), ctx)
-
-        lane_doc = (
-            "Drive on the {lane} lane at reference speed v_ref (m/s): attaches the path tracking objective (J1) "
-            "with the {lane} lane as reference path and detaches the other path tracking. v_ref = 0 stops the "
-            "car on that lane."
-        )
-        definitions: list[tuple[Callable[..., Any], str, str]] = [
-            (lane_tool("center"), "run_center_lane", lane_doc.format(lane="center")),
-            (lane_tool("left"), "run_left_lane", lane_doc.format(lane="left")),
-            (lane_tool("right"), "run_right_lane", lane_doc.format(lane="right")),
-            (
-                set_reference_speed,
-                "set_reference_speed",
-                "Change the reference speed v_ref (m/s) of the path tracking objective (J1), keeping the lane "
-                "the car follows now.",
-            ),
-            (
-                set_preferred_steering_direction,
-                "set_preferred_steering_direction",
-                "Prefer evading obstacles to the given side ('left' or 'right'): attaches the preferred "
-                "steering direction objective (J3).",
-            ),
-            (
-                clear_preferred_steering_direction,
-                "clear_preferred_steering_direction",
-                "Remove the preferred steering direction objective (J3): evade on whichever side is best.",
-            ),
-        ]
+        """Every row of the one tool table (mcp/tool_table.py) for this road's lanes, as SDK tools."""
         built = []
-        for fn, name, description in definitions:
-            tool = Tool.from_function(fn, name=name, description=description, structured_output=False)
+        for name, definition, lane in instances(self.tools):
+            tool = Tool.from_function(_mcp_function(definition.bind(self.tools, lane),
+                                                    definition.parameters(self.max_speed_mps)),
+                                      name=name, description=definition.description(lane), structured_output=False)
             tool.parameters["additionalProperties"] = False  # unknown arguments are an error, not ignored
             built.append(tool)
         return built
@@ -302,6 +251,20 @@ class AgenticMPCServer:
             if content != self._last_static.get(uri) or (key == "emergency_vehicles" and obs.get(key)):
                 self._last_static[uri] = content
                 self.bus.publish_threadsafe(ResourceUpdated(uri=uri))
+
+
+def _mcp_function(call: Callable[..., dict[str, Any]], parameters: list[inspect.Parameter]) -> Callable[..., Any]:
+    """A function the SDK reads a tool from: ``parameters`` (the schema) and the request context; calling it
+    runs ``call`` with the arguments and the request's scheduling metadata."""
+
+    def run_tool(ctx: Context, **arguments: Any) -> CallToolResult:
+        return _run(lambda at: call(**arguments, apply_at_s=at), ctx)
+
+    context = inspect.Parameter("ctx", inspect.Parameter.KEYWORD_ONLY, annotation=Context)
+    run_tool.__signature__ = inspect.Signature([*parameters, context], return_annotation=CallToolResult)
+    run_tool.__annotations__ = {**{p.name: p.annotation for p in parameters}, "ctx": Context,
+                                "return": CallToolResult}
+    return run_tool
 
 
 def _run(call: Callable[[float | None], dict[str, Any]], ctx: Context) -> CallToolResult:

@@ -1,11 +1,15 @@
-"""The controller tools of the paper's "Agent Setup": plain functions that rewrite the control specification.
+"""The controller tools of the paper's "Agent Setup": methods that rewrite the control specification.
 
-Each tool validates its arguments, builds the new specification from the current one and swaps it into the
+Each tool is said once, here: a method marked ``@tool`` / ``@lane_tool`` whose name (from
+:mod:`~agentic_mpc.mcp.protocol`), docstring (the description a model reads) and annotated arguments (the
+schema) are what the MCP server publishes (:mod:`~agentic_mpc.mcp.tool_table`). Each tool validates its
+arguments, builds the new specification from the current one and swaps it into the
 :class:`~agentic_mpc.primitives.SpecificationSlot` in one atomic ``slot.update`` (the control loop reads one
 snapshot per step, so it never sees half a change). Each returns what is attached afterwards.
 
-- ``run_center_lane(v_ref)``, ``run_left_lane(v_ref)``, ``run_right_lane(v_ref)``: attach J1 (path tracking)
-  on that lane of the ego's road at ``v_ref`` m/s; it replaces whichever path tracking was attached.
+- ``run_<lane>_lane(v_ref)``, one per lane label of the ego's road (``run_center_lane``, ``run_left_lane``,
+  ``run_right_lane`` on the paper's three-lane roads): attach J1 (path tracking) on that lane at ``v_ref``
+  m/s; it replaces whichever path tracking was attached.
 - ``set_reference_speed(v_ref)``: J1 on the lane currently tracked, at a new speed.
 - ``set_preferred_steering_direction(direction)`` / ``clear_preferred_steering_direction()``: attach or
   detach J3.
@@ -30,11 +34,13 @@ import math
 import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 from pydantic import ValidationError
 
 from agentic_mpc.geometry import LanePath
+from agentic_mpc.mcp.protocol import ToolName, lane_tool_name
+from agentic_mpc.mcp.tool_table import Side, SpeedMps, lane_tool, tool
 from agentic_mpc.primitives import (
     PathTracking,
     PreferredSteeringDirection,
@@ -45,10 +51,6 @@ from agentic_mpc.primitives import (
 from agentic_mpc.world.lanes import RoadLanes
 
 logger = logging.getLogger(__name__)
-
-LaneLabel = Literal["center", "left", "right"]
-LANE_LABELS: tuple[LaneLabel, ...] = ("center", "left", "right")
-Direction = Literal["left", "right"]
 
 PATH_TRACKING = PathTracking.kind
 STEERING_PREFERENCE = PreferredSteeringDirection.kind
@@ -120,9 +122,12 @@ class ControllerTools:
             raise ToolCallError(f"v_ref = {v:g} m/s is outside [0, {limit:g}] m/s (0 to the road speed limit)")
         return v
 
-    # ------------------------------------------------------------------ tools
-    def run_lane(self, lane: str, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
-        """Attach path tracking on ``lane`` at ``v_ref`` m/s, replacing the current path tracking."""
+    # ------------------------------------------------------------------ tools (docstrings: what a model reads)
+    @lane_tool
+    def run_lane(self, lane: str, v_ref: SpeedMps, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        """Drive on the {lane} lane at reference speed v_ref (m/s): attaches the path tracking objective (J1)
+        with the {lane} lane as reference path and detaches the other path tracking. v_ref = 0 stops the
+        car on that lane."""
         road = self.road()
         v = self.check_speed(v_ref, road)
         path = road.lanes.get(lane)
@@ -134,19 +139,13 @@ class ControllerTools:
         def change(spec: Specification) -> Specification:
             return spec.attach(_path_tracking_like(spec, path=path, lane=lane, v_ref_mps=v))
 
-        return self._apply(f"run_{lane}_lane", {"v_ref": v}, change, apply_at_s)
+        return self._apply(lane_tool_name(lane), {"v_ref": v}, change, apply_at_s)
 
-    def run_center_lane(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
-        return self.run_lane("center", v_ref, apply_at_s=apply_at_s)
-
-    def run_left_lane(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
-        return self.run_lane("left", v_ref, apply_at_s=apply_at_s)
-
-    def run_right_lane(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
-        return self.run_lane("right", v_ref, apply_at_s=apply_at_s)
-
-    def set_reference_speed(self, v_ref: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
-        """Path tracking on the lane tracked now (after pending changes), at ``v_ref`` m/s."""
+    @tool(ToolName.SET_REFERENCE_SPEED)
+    def set_reference_speed(self, v_ref: SpeedMps, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        """Change the reference speed v_ref (m/s) of the path tracking objective (J1), keeping the lane the
+        car follows now."""
+        # The lane tracked once the pending changes are in (the change runs on that specification).
         road = self.road()
         v = self.check_speed(v_ref, road)
 
@@ -162,10 +161,12 @@ class ControllerTools:
             path = road.lanes.get(current.lane, current.path)
             return spec.attach(_path_tracking_like(spec, path=path, lane=current.lane, v_ref_mps=v))
 
-        return self._apply("set_reference_speed", {"v_ref": v}, change, apply_at_s)
+        return self._apply(ToolName.SET_REFERENCE_SPEED, {"v_ref": v}, change, apply_at_s)
 
-    def set_preferred_steering_direction(self, direction: Any, *, apply_at_s: float | None = None) -> dict[str, Any]:
-        """Attach J3 preferring evasion to ``direction`` ("left" or "right")."""
+    @tool(ToolName.SET_PREFERRED_STEERING_DIRECTION)
+    def set_preferred_steering_direction(self, direction: Side, *, apply_at_s: float | None = None) -> dict[str, Any]:
+        """Prefer evading obstacles to the given side ('left' or 'right'): attaches the preferred steering
+        direction objective (J3)."""
         if direction not in ("left", "right"):
             raise ToolCallError(f"direction must be 'left' or 'right', got {direction!r}")
 
@@ -175,15 +176,17 @@ class ControllerTools:
             fields["direction"] = direction
             return spec.attach(_validated(PreferredSteeringDirection, fields))
 
-        return self._apply("set_preferred_steering_direction", {"direction": direction}, change, apply_at_s)
+        return self._apply(ToolName.SET_PREFERRED_STEERING_DIRECTION, {"direction": direction}, change, apply_at_s)
 
+    @tool(ToolName.CLEAR_PREFERRED_STEERING_DIRECTION)
     def clear_preferred_steering_direction(self, *, apply_at_s: float | None = None) -> dict[str, Any]:
-        """Detach J3 if it is attached (doing nothing is not an error)."""
+        """Remove the preferred steering direction objective (J3): evade on whichever side is best."""
+        # Detaching what is not attached is not an error: the call is idempotent.
 
         def change(spec: Specification) -> Specification:
             return spec.detach(STEERING_PREFERENCE) if STEERING_PREFERENCE in spec else spec
 
-        return self._apply("clear_preferred_steering_direction", {}, change, apply_at_s)
+        return self._apply(ToolName.CLEAR_PREFERRED_STEERING_DIRECTION, {}, change, apply_at_s)
 
     # ------------------------------------------------------------------ application
     def _apply(

@@ -18,8 +18,9 @@ from typing import Any, ClassVar, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict
+from pydantic import ConfigDict
 
+from agentic_mpc.frozen_config import FrozenConfig
 from agentic_mpc.vehicle import VehicleParams
 
 FloatArray = NDArray[np.float64]
@@ -233,10 +234,10 @@ class PreparedCost(Protocol):
         ...
 
 
-class Primitive(BaseModel):
+class Primitive(FrozenConfig):
     """Base of all primitive objectives: frozen, validated, no unknown fields, no NaN or infinity."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, arbitrary_types_allowed=True)
+    model_config = ConfigDict(arbitrary_types_allowed=True)  # + FrozenConfig's: lane paths are not pydantic
 
     kind: ClassVar[str]
     """Stable identifier of the primitive family, e.g. ``path_tracking``."""

@@ -6,15 +6,15 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
+from agentic_mpc.frozen_config import FrozenConfig
 from agentic_mpc.primitives.base import FloatArray, FusedTerms, Primitive, Rollouts, StepContext, per_stage
 
 
-class Circle(BaseModel):
+class Circle(FrozenConfig):
     """A circular region to keep the ego's centre out of."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     x_m: float
     y_m: float

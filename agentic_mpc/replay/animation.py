@@ -1,10 +1,10 @@
 """A run as a short animated GIF (or MP4): the bird's-eye view following the ego, at a few frames a second.
 
-The frames come from the replay's scene (:func:`agentic_mpc.replay.data.load_run`): the road's lanes, lane
-boundaries and edges, every vehicle's footprint coloured by class (as in the replay and the figures), the
-stopped cars and J2's discs, the MPPI plan where the run recorded one, the time, speed and the latest caption
-(the passenger's message, an observation, a tool call). GIFs are written with Pillow; MP4 needs ffmpeg on
-PATH (:class:`MissingToolError` otherwise).
+The frames come from the replay's scene (:func:`agentic_mpc.replay.data.load_run`), drawn as the figures draw
+(:mod:`agentic_mpc.plots.drawing`): the road's lanes, lane boundaries and edges, every vehicle's footprint
+coloured by class, the stopped cars and J2's discs; then the MPPI plan where the run recorded one, the time,
+speed and the latest caption (the passenger's message, an observation, a tool call). GIFs are written with
+Pillow; MP4 needs ffmpeg on PATH (:class:`MissingToolError` otherwise).
 """
 
 from __future__ import annotations
@@ -58,11 +58,12 @@ def write_animation(directory: Path, out: Path, fps: float = FPS, view_m: float 
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
     from matplotlib.animation import FFMpegWriter, PillowWriter
-    from matplotlib.patches import Circle, Rectangle
+    from matplotlib.patches import Rectangle
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
-    from agentic_mpc.plot_panels import footprint
+    from agentic_mpc.plots.drawing import draw_obstacles, draw_road, footprint
 
     def same(xy: Any) -> Any:  # the frames keep world coordinates
         return xy
@@ -73,18 +74,10 @@ def write_animation(directory: Path, out: Path, fps: float = FPS, view_m: float 
     box = (0.01, 0.02, 0.98, 0.86)  # a fixed layout: nothing to work out again each frame
     ax = fig.add_axes(box)
     road = scene["road"]
-    for part in road.get("edges", []):
-        for line in part:
-            ax.plot(*zip(*line), color="0.3", lw=1.3, zorder=0.3)
-    for line in road.get("boundaries", []):
-        ax.plot(*zip(*line), color="0.55", lw=0.8, ls=(0, (6, 6)), zorder=0.3)
-    for line in road.get("lanes", []):
-        ax.plot(*zip(*line), color="0.8", lw=0.6, ls=":", zorder=0.2)
-    for obstacle in scene["obstacles"]:
-        for x, y, radius in obstacle["discs"]:
-            ax.add_patch(Circle((x, y), radius, fill=False, edgecolor="0.2", lw=0.7, ls="--", zorder=3))
-        if "car" in obstacle:
-            footprint(ax, same, *obstacle["car"], "stopped")
+    lines = {"centres": road.get("lanes", []), "boundaries": road.get("boundaries", []),
+             "edges": [line for part in road.get("edges", []) for line in part]}
+    draw_road(ax, {key: [np.asarray(line) for line in value] for key, value in lines.items()}, same, surface=False)
+    draw_obstacles(ax, same, [(obstacle["discs"], obstacle.get("car")) for obstacle in scene["obstacles"]])
     ax.set_axis_off()  # a scale bar instead of tick labels: no text to lay out again each frame
     ax.add_artist(AnchoredSizeBar(ax.transData, 10.0, "10 m", loc="lower right", frameon=False, size_vertical=0.3,
                                   fontproperties={"size": 7}, pad=0.2, borderpad=0.3))

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from agentic_mpc.replay.data import load_run
+from agentic_mpc.run.files import REPLAY
 
 PAGE = """<!DOCTYPE html>
 <html lang="en">
@@ -113,7 +114,7 @@ def write_replay(run_dir: Path, out: Path | None = None) -> Path:
 
     Raises :class:`~agentic_mpc.replay.data.ReplayInputError` when ``run_dir`` is not a readable run."""
     run_dir = Path(run_dir)
-    out = Path(out) if out is not None else run_dir / "replay.html"
+    out = Path(out) if out is not None else run_dir / REPLAY
     page = render_page(load_run(run_dir))
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(page, encoding="utf-8")

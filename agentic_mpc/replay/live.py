@@ -15,17 +15,17 @@ import threading
 from typing import Any
 
 from agentic_mpc.replay.data import (
-    DEFAULT_SIZES,
     EGO_HZ,
-    TRAFFIC_HZ,
-    _num,
-    _r,
+    TRACK_COLUMNS,
+    TrafficFrames,
+    add_spec,
     captions_of,
     obstacle_items,
     road_geometry,
-    size_of,
-    vehicle_sizes,
+    rounded,
+    scene,
 )
+from agentic_mpc.run.reader import Obstacle, number, run_title, vehicle_sizes
 
 ROAD_MARGIN_M = 5000.0
 """How far around the ego's start the road is drawn on a live page (the replay draws around the whole run)."""
@@ -51,15 +51,12 @@ class LiveScene:
         self._notes: list[str] = []
         self._sizes = vehicle_sizes(scenario, self._notes)
         self._lock = threading.Lock()  # one page's chunk at a time: the cursors are shared
-        self._vehicles: dict[str, dict[str, Any]] = {}
-        self._index: dict[str, int] = {}
+        self._traffic = TrafficFrames(self._sizes)
         self._track: list[list[Any]] = []
-        self._frames: list[list[Any]] = []
         self._specs: list[list[Any]] = []
         self._captions: list[dict[str, Any]] = []
         self._cursor = {"trajectory": 0, "traffic": 0, "transcript": 0, "received": 0}
         self._last_ego_t = -math.inf
-        self._last_frame_t = -math.inf
         self._road: dict[str, Any] | None = None
 
     # ------------------------------------------------------------------ what a new page gets
@@ -67,34 +64,24 @@ class LiveScene:
         """The whole scene so far, in the replay page's format plus ``live: true``."""
         with self._lock:
             self._advance()
-            scenario = self._scenario
-            ego_type = (scenario.get("simulation") or {}).get("ego_type_id", "ego")
-            ego_size = self._sizes.get(ego_type) or DEFAULT_SIZES["ego"]
-            return {
-                "live": True,
-                "title": " / ".join(str(scenario.get(k, "?")) for k in ("name", "variant", "seed")),
-                "description": scenario.get("description", ""),
-                "summary": {},
-                "road": self._road_near_ego(),
-                "ego": {"columns": ["t", "x", "y", "heading", "v", "a"], "track": list(self._track),
-                        "specs": list(self._specs), "L": ego_size[0], "W": ego_size[1]},
-                "traffic": {"vehicles": list(self._vehicles.values()), "frames": list(self._frames)},
-                "obstacles": self._obstacles(),
-                "captions": list(self._captions),
-                "plan": [],
-                "notes": list(self._notes),
-            }
+            ego = {"columns": list(TRACK_COLUMNS), "track": list(self._track), "specs": list(self._specs)}
+            traffic = {"vehicles": list(self._traffic.vehicles.values()), "frames": list(self._traffic.frames)}
+            return {"live": True, **scene(self._scenario, self._sizes, run_title(self._scenario), summary={},
+                                          road=self._road_near_ego(), ego=ego, traffic=traffic,
+                                          obstacles=self._obstacles(), captions=list(self._captions), plan=[],
+                                          notes=list(self._notes))}
 
     def chunk(self, since: dict[str, int]) -> tuple[dict[str, Any], dict[str, int]]:
         """What a page that has seen ``since`` (the counts of a previous chunk) has not: new track points,
         traffic frames, vehicles, specifications and captions; and the counts to pass next time."""
         with self._lock:
             self._advance()
-            counts = {"track": len(self._track), "frames": len(self._frames), "vehicles": len(self._vehicles),
+            frames = self._traffic.frames
+            counts = {"track": len(self._track), "frames": len(frames), "vehicles": len(self._traffic.vehicles),
                       "specs": len(self._specs), "captions": len(self._captions)}
-            vehicles = list(self._vehicles.values())
+            vehicles = list(self._traffic.vehicles.values())
             new = {
-                "track": self._track[since.get("track", 0):], "frames": self._frames[since.get("frames", 0):],
+                "track": self._track[since.get("track", 0):], "frames": frames[since.get("frames", 0):],
                 "vehicles": vehicles[since.get("vehicles", 0):], "specs": self._specs[since.get("specs", 0):],
                 "captions": self._captions[since.get("captions", 0):],
             }
@@ -119,49 +106,31 @@ class LiveScene:
         for row in self._take("trajectory", recorder.trajectory_rows):
             self._ego_row(row)
         for row in self._take("traffic", recorder.traffic_rows):
-            self._traffic_row(row)
+            self._traffic.add(row)
         agent = getattr(self._loop, "agent", None)
         records = [_event_row(r) for r in self._take("transcript", agent.transcript.records if agent else [])]
         records += [_event_row(r) for r in self._take("received", recorder.received_calls)
                     if not str(r.get("client", "")).startswith(OWN_AGENT_CLIENT)]
-        records.sort(key=lambda r: _num(r.get("sim_time_s"), 0.0))
+        records.sort(key=lambda r: number(r.get("sim_time_s"), 0.0))
         self._captions.extend(captions_of(records, own_calls=False))
 
     def _ego_row(self, row: dict[str, Any]) -> None:
         t = float(row["time_s"])
-        summary = str(row.get("spec_summary", ""))
-        if not self._specs or self._specs[-1][2] != summary:
-            self._specs.append([_r(t, 3), str(row.get("spec_version", "")), summary])
+        add_spec(self._specs, t, str(row.get("spec_version", "")), str(row.get("spec_summary", "")))
         if t - self._last_ego_t < 1.0 / EGO_HZ - 1e-6:
             return
         v = float(row["v_mps"])
         previous = self._track[-1] if self._track else None
-        accel = (v - previous[4]) / (t - previous[0]) if previous and t > previous[0] and previous[4] is not None else 0.0
-        self._track.append([_r(t, 3), _r(float(row["x_m"])), _r(float(row["y_m"])), _r(float(row["phi_rad"]), 3),
-                            _r(v), _r(accel)])
+        moved = previous is not None and t > previous[0] and previous[4] is not None
+        accel = (v - previous[4]) / (t - previous[0]) if moved else 0.0
+        self._track.append([rounded(t, 3), rounded(float(row["x_m"])), rounded(float(row["y_m"])),
+                            rounded(float(row["phi_rad"]), 3), rounded(v), rounded(accel)])
         self._last_ego_t = t
 
-    def _traffic_row(self, row: dict[str, Any]) -> None:
-        t = float(row["time_s"])
-        if not self._frames or t != self._frames[-1][0]:
-            if t - self._last_frame_t < 1.0 / TRAFFIC_HZ - 1e-6:
-                return
-            self._frames.append([_r(t, 3), []])
-            self._last_frame_t = t
-        vid = str(row["id"])
-        if vid not in self._index:
-            emergency = bool(row.get("emergency")) or row.get("vclass") == "emergency"
-            length, width = size_of(self._sizes, vid, str(row.get("type_id", "")), str(row.get("vclass", "")))
-            self._index[vid] = len(self._vehicles)
-            self._vehicles[vid] = {"id": vid, "type": row.get("type_id", ""), "cls": row.get("vclass", ""),
-                                   "L": round(length, 2), "W": round(width, 2), "em": emergency}
-        self._frames[-1][1].append([self._index[vid], _r(float(row["x_m"])), _r(float(row["y_m"])),
-                                    _r(float(row["heading_rad"]), 3), _r(float(row["speed_mps"]), 1)])
-
     def _obstacles(self) -> list[dict[str, Any]]:
-        rows = [{"id": c.label, "x_m": c.x_m, "y_m": c.y_m, "radius_m": c.radius_m}
-                for track in self._loop.recorder.metrics.obstacles for c in track.circles]
-        return obstacle_items(rows, self._sizes)
+        tracks = self._loop.recorder.metrics.obstacles
+        return obstacle_items([Obstacle(track.id, tuple((c.x_m, c.y_m, c.radius_m) for c in track.circles))
+                               for track in tracks if track.circles], self._sizes)
 
     def _road_near_ego(self) -> dict[str, Any]:
         if self._road is None:

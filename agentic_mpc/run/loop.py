@@ -39,7 +39,7 @@ from agentic_mpc.run.recorder import RunRecorder, StepOutcome
 from agentic_mpc.run.timeline import MessageSchedule, TimedMessage
 from agentic_mpc.vehicle import throttle_for_steady_speed
 from agentic_mpc.world.base import World
-from agentic_mpc.world.emergency import EmergencyDetector
+from agentic_mpc.world.emergency import ALERT_DISTANCE_M, EmergencyDetector
 
 logger = logging.getLogger(__name__)
 
@@ -58,7 +58,7 @@ class LoopSettings:
     """Record the other road users every this many steps."""
     pace: float | None = None
     """Wall seconds per simulated second (1 = real time; None: as fast as it goes)."""
-    alert_distance_m: float = 80.0
+    alert_distance_m: float = ALERT_DISTANCE_M
     """How far behind an emergency vehicle starts to matter (events and observation messages)."""
     plan_stride: int = 0
     """Record the controller's optimal predicted trajectory every this many steps (0: never)."""
@@ -66,12 +66,12 @@ class LoopSettings:
 
 @dataclass
 class AgentSetup:
-    """The embedded agent: a backend and how it runs. Observation messages wake it on emergency events."""
+    """The embedded agent: a backend and how it runs (with ``config.observation_messages`` emergency events
+    wake it)."""
 
     backend: Any
     config: Any
     """An :class:`~agentic_mpc.agent.agent.AgentConfig`."""
-    observation_messages: bool = False
 
 
 class RunLoop:
@@ -117,13 +117,10 @@ class RunLoop:
         if agent is not None:
             from agentic_mpc.agent.agent import Agent
 
-            config = agent.config
-            if agent.observation_messages:  # the agent watches sumo://emergency-vehicles over MCP itself
-                config = config.model_copy(update={"watch_emergency_vehicles": True,
-                                                   "alert_distance_m": settings.alert_distance_m})
+            config = agent.config  # observation messages: the agent watches sumo://emergency-vehicles itself
             self.agent = Agent(agent.backend, self.server, config, sim_clock=lambda: world.time_s).start()
-            self._observation_messages = agent.observation_messages
-        self._lockstep = self.agent is not None and self.agent.config.timing == "lockstep"
+            self._observation_messages = config.observation_messages
+        self._lockstep = self.agent is not None and self.agent.config.mode == "lockstep"
 
     # ------------------------------------------------------------------ stepping
     @property

@@ -1,8 +1,10 @@
-"""What a run records, and the files it writes: ``trajectory.csv`` (one row per control step),
+"""What a run records, and the files it writes (names and columns in :mod:`agentic_mpc.run.files`):
+``trajectory.csv`` (one row per control step, with the motion columns of :mod:`agentic_mpc.run.comfort`),
 ``traffic.csv`` (the other road users every few steps), ``plan.csv`` (the controller's optimal predicted
-trajectory every few steps, when asked for), ``events.csv`` (messages, tool calls, specification
-changes, collisions), ``obstacles.csv`` (J2's discs), ``obstacle_passes.csv`` (one row per obstacle: side,
-clearance, when passed) and ``summary.csv`` (the metrics of :mod:`agentic_mpc.scenario.metrics`).
+trajectory every few steps, when asked for), ``events.csv`` (messages, tool calls, specification changes,
+collisions), ``obstacles.csv`` (J2's discs), ``obstacle_passes.csv`` (one row per obstacle: side, clearance,
+when passed) and ``summary.csv`` (the metrics of :mod:`agentic_mpc.run.metrics` and
+:mod:`agentic_mpc.run.comfort`). :mod:`agentic_mpc.run.reader` reads them back.
 
 A ``collision`` row in ``events.csv`` is one contact episode of the ego (not every step in contact): ``source``
 says who saw it first (``sumo`` or ``geometry``), ``content`` the cause and the other vehicle, ``result`` the
@@ -17,18 +19,12 @@ from pathlib import Path
 from typing import Any
 
 from agentic_mpc.primitives import PathTracking, Specification
-from agentic_mpc.scenario.comfort import add_motion_columns, comfort_summary
-from agentic_mpc.scenario.metrics import OBSTACLE_COLUMNS, MetricsRecorder, ObstacleTrack, obstacle_rows, summarise
+from agentic_mpc.run import files
+from agentic_mpc.run.comfort import add_motion_columns, comfort_summary
+from agentic_mpc.run.metrics import MetricsRecorder, ObstacleTrack, obstacle_rows, summarise
 from agentic_mpc.world.base import World
 from agentic_mpc.world.collisions import CollisionEpisode, ReportWithoutContact
 from agentic_mpc.world.observation import Observation
-
-TRAFFIC_COLUMNS = ("time_s", "id", "type_id", "vclass", "x_m", "y_m", "heading_rad", "speed_mps", "lane_id",
-                   "road_s_m", "gap_m", "relation", "emergency")
-EVENT_COLUMNS = ("event", "tau", "sim_time_s", "role", "source", "content", "tool", "arguments", "ok", "result",
-                 "error", "apply_at_s", "client")
-"""``client`` (last) is set on ``tool_call_received`` rows: one per tool call the MCP server received, with who
-made it (``name/version; session=ID; address=IP``). ``tool_call`` rows are the embedded agent's own transcript."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -152,16 +148,17 @@ class RunRecorder:
         import pandas as pd
 
         trajectory = add_motion_columns(pd.DataFrame(self.trajectory_rows))
-        trajectory.to_csv(out_dir / "trajectory.csv", index=False)
-        pd.DataFrame(self.traffic_rows, columns=list(TRAFFIC_COLUMNS)).to_csv(out_dir / "traffic.csv", index=False)
+        trajectory.to_csv(out_dir / files.TRAJECTORY, index=False)
+        traffic = pd.DataFrame(self.traffic_rows, columns=list(files.TRAFFIC_COLUMNS))
+        traffic.to_csv(out_dir / files.TRAFFIC, index=False)
         if self.plan_rows:
-            pd.DataFrame(self.plan_rows, columns=["time_s", "k", "x_m", "y_m"]).to_csv(out_dir / "plan.csv", index=False)
+            pd.DataFrame(self.plan_rows, columns=list(files.PLAN_COLUMNS)).to_csv(out_dir / files.PLAN, index=False)
         collisions = [collision_event(e) for e in self.metrics.collisions.episodes]
         collisions += [report_without_contact_event(r) for r in self.metrics.collisions.reports_without_contact]
         events = events_table(sorted(self.setup_events + transcript + list(self.received_calls)
                                      + self.specification_events + collisions,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
-        events.to_csv(out_dir / "events.csv", index=False)
+        events.to_csv(out_dir / files.EVENTS, index=False)
         summary: dict[str, Any] = {
             **identity,
             "status": "ok" if error is None else "failed",
@@ -175,13 +172,13 @@ class RunRecorder:
         rescue = getattr(self.world, "rescue_lanes", None)  # SUMO worlds: whether SUMO's drivers formed them
         summary["rescue_lanes"] = "" if rescue is None else bool(rescue)
         summary["wall_s"] = round(wall_s, 3)
-        pd.DataFrame([summary]).to_csv(out_dir / "summary.csv", index=False)
+        pd.DataFrame([summary]).to_csv(out_dir / files.SUMMARY, index=False)
         pd.DataFrame(
             [(c.label, c.x_m, c.y_m, c.radius_m) for track in self.metrics.obstacles for c in track.circles],
-            columns=["id", "x_m", "y_m", "radius_m"],
-        ).to_csv(out_dir / "obstacles.csv", index=False)
-        pd.DataFrame(obstacle_rows(self.metrics), columns=list(OBSTACLE_COLUMNS)).to_csv(
-            out_dir / "obstacle_passes.csv", index=False)
+            columns=list(files.OBSTACLE_COLUMNS),
+        ).to_csv(out_dir / files.OBSTACLES, index=False)
+        pd.DataFrame(obstacle_rows(self.metrics), columns=list(files.OBSTACLE_PASS_COLUMNS)).to_csv(
+            out_dir / files.OBSTACLE_PASSES, index=False)
         return summary
 
 
@@ -214,9 +211,9 @@ def events_table(transcript: list[dict[str, Any]]) -> Any:
 
     rows = []
     for record in transcript:
-        row = {key: record.get(key) for key in EVENT_COLUMNS}
+        row = {key: record.get(key) for key in files.EVENT_COLUMNS}
         for key in ("arguments", "result"):
             if row[key] is not None and not isinstance(row[key], str):
                 row[key] = json.dumps(row[key], default=str)
         rows.append(row)
-    return pd.DataFrame(rows, columns=list(EVENT_COLUMNS))
+    return pd.DataFrame(rows, columns=list(files.EVENT_COLUMNS))

@@ -15,42 +15,19 @@ import time
 from pathlib import Path
 from typing import Any
 
-from agentic_mpc.scenario.schema import AgentSettings, Scenario, load_scenario
+from agentic_mpc.scenario.schema import Scenario, load_scenario
 from agentic_mpc.world.base import World
 
 logger = logging.getLogger(__name__)
 
 
 def build_world(scenario: Scenario) -> World:
-    """The scenario's world, started (SUMO is launched here for a SUMO world)."""
+    """The scenario's world, started by its kind (agentic_mpc/worlds.py; SUMO is launched here)."""
     from agentic_mpc.reproducibility import warn_once
+    from agentic_mpc.worlds import WORLD_KINDS
 
     warn_once()  # where identical numbers across machines cannot be promised, the run's log says so
-    if scenario.plain_world is not None:
-        from agentic_mpc.world.plain import PlainWorld
-
-        return PlainWorld(scenario.plain_world, seed=scenario.seed)
-    from agentic_mpc.sumo.world import SumoWorld
-
-    assert scenario.simulation is not None
-    return SumoWorld(scenario.simulation, seed=scenario.seed)
-
-
-def build_backend(settings: AgentSettings, lefthand: bool) -> Any:
-    """The scenario's backend; the rules backend pulls over to the road edge (left in left-hand traffic)."""
-    from agentic_mpc.agent.backends import make_backend
-
-    if settings.backend == "rules":
-        return make_backend("rules", yield_lane="left" if lefthand else "right")
-    options: dict[str, Any] = {"temperature": settings.temperature, "max_tokens": settings.max_tokens,
-                               "extra_body": settings.extra_body}
-    if settings.tool_mode is not None:
-        options["tool_mode"] = settings.tool_mode
-    if settings.backend == "llamacpp":  # a GGUF file in process; `model` is its path
-        return make_backend("llamacpp", model_path=settings.model, threads=settings.threads,
-                            ctx_size=settings.ctx_size, **options)
-    return make_backend("openai", base_url=settings.base_url, model=settings.model, api_key_env=settings.api_key_env,
-                        timeout_s=settings.timeout_s, **options)
+    return WORLD_KINDS[scenario.world_kind].start_world(scenario.world, scenario.seed)
 
 
 def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True, pace: float | None = None,
@@ -67,13 +44,8 @@ def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True,
     if not embedded_agent:
         agent = None
     elif agent is None:
-        from agentic_mpc.agent.config import AgentConfig
-
-        config = AgentConfig(timing=settings.mode, latency_s=settings.latency_s, transcript_path=transcript_path,
-                             backend_timeout_s=settings.timeout_s + 5.0, system_prompt_extra=settings.extra_prompt,
-                             max_rounds_per_step=settings.max_rounds_per_step,
-                             restore_reminder=settings.restore_reminder)
-        agent = AgentSetup(build_backend(settings, world.lanes().lefthand), config, settings.observation_messages)
+        agent = AgentSetup(settings.build_backend(world.lanes().lefthand),
+                           settings.agent_config(transcript_path=transcript_path))
     return RunLoop(
         world, initial_specification(scenario.specification, world),
         LoopSettings(duration_s=scenario.duration_s, stop_at_goal=scenario.stop_at_goal,

@@ -12,19 +12,18 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_serializer, model_validator
+from pydantic_core import PydanticCustomError
 
+from agentic_mpc.agent.settings import AgentSettings, RulesSettings, agent_settings
 from agentic_mpc.controller.config import MPPIConfig
+from agentic_mpc.frozen_config import FrozenConfig
 from agentic_mpc.scenario.yaml_source import ScenarioFileError, YamlDocument, YamlPath, deep_merge, load_yaml
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
-from agentic_mpc.world.plain_config import PlainConfig
+from agentic_mpc.worlds import WORLD_KINDS
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-
-class PathTrackingSettings(_Strict):
+class PathTrackingSettings(FrozenConfig):
     """J1 of the initial specification; the path is the given lane of the ego's road."""
 
     lane: LaneRef = "center"
@@ -36,14 +35,14 @@ class PathTrackingSettings(_Strict):
     paper_reference: bool = Field(False, description="the paper's constant-speed reference points")
 
 
-class ObstacleAvoidanceSettings(_Strict):
+class ObstacleAvoidanceSettings(FrozenConfig):
     """J2 of the initial specification over the simulation's obstacles marked ``in_j2`` (discs covering each
     stopped car, inflated by the ego's half size and a margin: ``sumo.surroundings.obstacle_circles``)."""
 
     penalty: float = Field(100.0, gt=0)
 
 
-class SpecificationSettings(_Strict):
+class SpecificationSettings(FrozenConfig):
     """The initially attached primitives (J0 is always attached; its weights may be set here)."""
 
     mandatory: dict[str, Any] = Field(default_factory=dict)
@@ -63,50 +62,7 @@ class SpecificationSettings(_Strict):
         return self
 
 
-class AgentSettings(_Strict):
-    """Which agent runs, how its latency is modelled, and whether what SUMO sees can wake it."""
-
-    backend: Literal["rules", "openai", "llamacpp"] = "rules"
-    base_url: str = Field("http://localhost:11434/v1", description="openai backend: the chat-completions endpoint")
-    model: str = Field("granite4:micro", description="openai backend: the model name; llamacpp: the GGUF file's path")
-    api_key_env: str | None = Field(None, description="openai backend: environment variable holding the API key")
-    timeout_s: float = Field(60.0, gt=0, description="openai, llamacpp: seconds per answer; the agent step's "
-                             "own timeout is this plus 5 s, so the backend's runs out first")
-    tool_mode: Literal["native", "json_schema"] | None = Field(
-        None, description="openai, llamacpp: native tool calls, or output constrained by a JSON schema of the "
-                          "tools (default: native for openai, json_schema for llamacpp)")
-    temperature: float = Field(0.0, ge=0, le=2, description="openai, llamacpp: sampling temperature")
-    max_tokens: int = Field(512, ge=1, le=32768, description="openai, llamacpp: tokens per answer")
-    extra_body: dict[str, Any] = Field(default_factory=dict,
-                                       description="openai: merged into every request body (e.g. top_p)")
-    extra_prompt: str = Field("", max_length=8000, description="appended to the system prompt (any backend "
-                              "but rules)")
-    threads: int = Field(1, ge=1, le=256, description="llamacpp: CPU threads")
-    ctx_size: int = Field(8192, ge=256, le=1_048_576, description="llamacpp: context size in tokens")
-    max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step (a model "
-                                     "that keeps calling tools is stopped there)")
-    restore_reminder: bool = Field(False, description="language models: a step whose answer calls no tool while the "
-                                   "specification differs from the initial one gets one reminder round saying how "
-                                   "it differs (agent/config.py; measured not to help Qwen 1.5B, README)")
-
-    @field_validator("model")
-    @classmethod
-    def _model_file_for_llamacpp(cls, model: str, info: ValidationInfo) -> str:
-        """llamacpp: the GGUF file must exist before anything starts (said with the YAML path / --agent key)."""
-        if info.data.get("backend") == "llamacpp":
-            from agentic_mpc.agent.backends.llamacpp import check_gguf  # light: no llama.cpp import
-
-            check_gguf(model)
-        return model
-    mode: Literal["lockstep", "realtime"] = Field(
-        "lockstep", description="lockstep: reproducible, tool calls take effect latency_s after the message"
-    )
-    latency_s: float = Field(0.5, ge=0, description="lockstep: simulated thinking time of the agent")
-    observation_messages: bool = Field(False, description="wake the agent when an emergency vehicle approaches")
-    alert_distance_m: float = Field(80.0, gt=0, description="how far behind an emergency vehicle starts to matter")
-
-
-class Message(_Strict):
+class Message(FrozenConfig):
     """A user message at a simulation time, or a delay after an event."""
 
     text: str = Field(..., min_length=1, max_length=4000)
@@ -125,7 +81,7 @@ class Message(_Strict):
         return self
 
 
-class OutputSettings(_Strict):
+class OutputSettings(FrozenConfig):
     traffic_stride: int = Field(5, ge=1, description="write SUMO vehicles every this many steps")
     plot: bool = True
     replay: bool = Field(True, description="write replay.html, the animated replay of the run")
@@ -134,16 +90,18 @@ class OutputSettings(_Strict):
     )
 
 
-class Scenario(_Strict):
+class Scenario(FrozenConfig):
     """One runnable scenario (a variant already applied)."""
 
     name: str = Field(..., min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
     description: str = ""
-    simulation: SumoConfig | None = Field(None, description="the SUMO world (network, traffic, ego, obstacles)")
-    plain_world: PlainConfig | None = Field(None, description="or a plain-Python world without SUMO")
+    world_kind: str = Field(..., description="the world's key in the file: simulation (SUMO), plain_world, or any "
+                                             "kind registered in agentic_mpc/worlds.py")
+    world: Any = Field(..., description="that key's mapping, validated by the kind's config model")
     controller: MPPIConfig = MPPIConfig()
     specification: SpecificationSettings
-    agent: AgentSettings = AgentSettings()
+    agent: AgentSettings = Field(default_factory=RulesSettings, description="which agent runs and how "
+                                 "(agent/settings.py; a flat mapping, its backend key choosing the options)")
     messages: tuple[Message, ...] = ()
     duration_s: float = Field(..., gt=0, le=3600)
     stop_at_goal: bool = Field(True, description="end the run when the ego reaches the simulation's goal")
@@ -151,11 +109,59 @@ class Scenario(_Strict):
     outputs: OutputSettings = OutputSettings()
     variant: str = Field("base", description="set by the loader")
 
-    @model_validator(mode="after")
-    def _one_world(self) -> Scenario:
-        if (self.simulation is None) == (self.plain_world is None):
-            raise ValueError("give exactly one world: simulation (SUMO) or plain_world")
-        return self
+    @model_validator(mode="wrap")
+    @classmethod
+    def _registered_parts(cls, data: Any, handler: Any) -> Scenario:
+        """The parts chosen from a registry, validated by what was registered: the file's one world key
+        (agentic_mpc/worlds.py) and the agent by its backend (agent/settings.py). Their errors and the rest
+        of the file's are reported together, each at its own YAML path."""
+        if not isinstance(data, dict) or "world" in data:
+            return handler(data)
+        present = [key for key in WORLD_KINDS if data.get(key) is not None]
+        rest = {key: value for key, value in data.items() if key not in WORLD_KINDS}
+        errors: list[Any] = []
+        if len(present) != 1:
+            names = " or ".join(f"{kind.key} ({kind.title})" for kind in WORLD_KINDS.values())
+            errors.append({"type": "value_error", "loc": (), "input": data,
+                           "msg": f"Value error, give exactly one world: {names}"})
+        else:
+            try:
+                rest.update(world_kind=present[0], world=WORLD_KINDS[present[0]].config_model().model_validate(
+                    data[present[0]]))
+            except ValidationError as error:
+                errors += [{**item, "loc": (present[0], *item["loc"])} for item in error.errors()]
+        if isinstance(data.get("agent", {}), dict):
+            try:
+                rest["agent"] = agent_settings(data.get("agent", {}))
+            except ValidationError as error:  # the location's second part is the backend's name, not a key
+                errors += [{**item, "loc": ("agent", *item["loc"][1:])} for item in error.errors()]
+                rest.pop("agent")
+        try:
+            scenario = handler(rest)
+        except ValidationError as error:  # "world missing" is said above, in the file's words
+            errors += [item for item in error.errors() if item["loc"][:1] not in (("world",), ("world_kind",))]
+        if errors:  # re-raised as one error, each item keeping its location and words
+            raise ValidationError.from_exception_data(cls.__name__, [
+                {"type": PydanticCustomError(item["type"], item["msg"]), "loc": item["loc"], "input": item.get("input")}
+                for item in errors])
+        return scenario
+
+    @model_serializer(mode="wrap")
+    def _world_under_its_key(self, handler: Any) -> dict[str, Any]:
+        """``scenario.json`` keeps the file's shape: the world under its own key."""
+        data = handler(self)
+        kind, world = data.pop("world_kind"), data.pop("world")
+        return {key: data[key] for key in ("name", "description")} | {kind: world} | data
+
+    @property
+    def simulation(self) -> Any:
+        """The SUMO world's config, or None."""
+        return self.world if self.world_kind == "simulation" else None
+
+    @property
+    def plain_world(self) -> Any:
+        """The plain-Python world's config, or None."""
+        return self.world if self.world_kind == "plain_world" else None
 
     @model_validator(mode="after")
     def _messages_inside_the_run(self) -> Scenario:
@@ -230,8 +236,6 @@ def _validate(document: YamlDocument, data: dict[str, Any], prefix: YamlPath, pr
     except ValidationError as error:
         # pydantic skips model checks when a field fails: run the whole-file checks here so every problem shows
         problems.extend(_messages_past_the_end(document, data, prefix))
-        if ("simulation" in data) == ("plain_world" in data):
-            problems.append(f"{document.locate(prefix)}: give exactly one world: simulation (SUMO) or plain_world")
         for item in error.errors():
             location = tuple(item["loc"])
             # an override's own line if the variant set this value, else the base file's line

@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 import pandas  # noqa: E402, F401
 
 # The layers import lazily (a single command pays only for what it uses); a fork server wants them all.
-from agentic_mpc import plots  # noqa: E402, F401
+from agentic_mpc.plots import demo_figures, figures  # noqa: E402, F401
 from agentic_mpc.agent import agent  # noqa: E402, F401
 from agentic_mpc.agent.backends import openai, rules  # noqa: E402, F401
 from agentic_mpc.controller.config import MPPIConfig  # noqa: E402

@@ -9,15 +9,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
+
+from agentic_mpc.frozen_config import FrozenConfig
 
 LaneRef = int | Literal["left", "center", "right"]
 
 
-class SurroundingsConfig(BaseModel):
+class SurroundingsConfig(FrozenConfig):
     """How the observation becomes the controller's surroundings."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     clearance_margin_m: float = Field(
         0.5, ge=0, description="disc radius = (W + W_ego)/2 + margin; also how far the cover overshoots at corners"
@@ -44,11 +45,7 @@ class SurroundingsConfig(BaseModel):
     )
 
 
-class _Frozen(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-
-class EgoStart(_Frozen):
+class EgoStart(FrozenConfig):
     """Where the ego enters. Positions are SUMO lane positions of the FRONT bumper, as in SUMO's departPos."""
 
     edge_id: str | None = Field(None, description="edge of the road to start on (default: the road's first)")
@@ -58,7 +55,7 @@ class EgoStart(_Frozen):
     lateral_offset_m: float = Field(0.0, description="start this far left (+) of the lane centre")
 
 
-class _Placed(_Frozen):
+class _Placed(FrozenConfig):
     """A vehicle the scenario puts on a lane of the road: which, of what type, where."""
 
     id: str = Field(..., min_length=1)
@@ -98,7 +95,7 @@ BLUELIGHT_PARAM_KEYS = (
 probabilities (per second) and near-dist every step, reactiondist and mingapfactor when the device is built."""
 
 
-class RescueLanes(_Frozen):
+class RescueLanes(FrozenConfig):
     """SUMO's drivers form a rescue lane for emergency vehicles (the bluelight device under the sublane model).
 
     Measured on the curved 3-lane road (docs/traffic.md): 3 cars abreast ahead of an ambulance cost it 38 s
@@ -131,7 +128,7 @@ class RescueLanes(_Frozen):
         return params
 
 
-class SumoConfig(_Frozen):
+class SumoConfig(FrozenConfig):
     """The SUMO world of a run: network, traffic, the ego's start, obstacles; validated before SUMO starts.
 
     The seed is the run's (given to :class:`~agentic_mpc.sumo.world.SumoWorld`), not a field here."""

@@ -22,8 +22,6 @@ from agentic_mpc.sumo.config import (
 )
 
 
-
-
 def net_files(name: str, lefthand: bool = False) -> tuple[Path, Path]:
     """(net file, route file) of a net: ``straight``, ``emergency`` or ``curvy``."""
     directory = nets_dir()

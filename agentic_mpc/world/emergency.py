@@ -74,11 +74,15 @@ def _label(vehicle_id: str, kind: str) -> str:
     return f"{kind} '{vehicle_id}'" if kind else f"'{vehicle_id}'"
 
 
+ALERT_DISTANCE_M = 80.0
+"""How far behind the ego an emergency vehicle starts to matter, unless a scenario says otherwise."""
+
+
 @dataclass
 class EmergencyDetector:
     """Feed it every observation (:meth:`update`); it returns the events that observation brings."""
 
-    alert_distance_m: float = 80.0
+    alert_distance_m: float = ALERT_DISTANCE_M
     passed_margin_m: float = PASSED_MARGIN_M
     first_times_s: dict[str, float] = field(default_factory=dict)
     """When each kind of event happened first (what the message timeline waits for)."""

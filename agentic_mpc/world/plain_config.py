@@ -4,15 +4,13 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
+
+from agentic_mpc.frozen_config import FrozenConfig
 
 LaneRole = Literal["center", "left", "right"]
 ROLES: tuple[LaneRole, ...] = ("center", "left", "right")
-class _Frozen(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-
-class PlainRoad(_Frozen):
+class PlainRoad(FrozenConfig):
     """Three lanes along +x: "center" on y = 0, "left" at +lane_width_m, "right" at -lane_width_m."""
 
     lane_width_m: float = Field(3.5, gt=0)
@@ -33,13 +31,13 @@ class PlainRoad(_Frozen):
         return order.index(role)
 
 
-class EgoPlacement(_Frozen):
+class EgoPlacement(FrozenConfig):
     x_m: float = 0.0
     lane: LaneRole = "center"
     speed_mps: float = Field(15.0, ge=0, le=60)
 
 
-class ScriptedVehicle(_Frozen):
+class ScriptedVehicle(FrozenConfig):
     """Another road user: drives along ``lane`` at ``desired_speed_mps`` from ``appear_at_s`` on.
     ``x_m: null`` places it ``behind_ego_m`` behind the ego when it appears (an ambulance coming up behind)."""
 
@@ -54,7 +52,7 @@ class ScriptedVehicle(_Frozen):
     behind_ego_m: float = Field(120.0, ge=0)
 
 
-class PlainObstacle(_Frozen):
+class PlainObstacle(FrozenConfig):
     """A static circular obstacle."""
 
     id: str = Field(..., min_length=1)
@@ -64,7 +62,7 @@ class PlainObstacle(_Frozen):
     in_j2: bool = Field(True, description="add it to the initial specification's obstacle avoidance (J2)")
 
 
-class PlainConfig(_Frozen):
+class PlainConfig(FrozenConfig):
     """The plain world of a run."""
 
     road: PlainRoad = PlainRoad()

@@ -133,7 +133,7 @@ def main() -> None:
         system = Message("system", system_prompt(initial, tools), data=system.data, tau=0)
     if args.show_prompt:
         print(system.content, "\n", flush=True)
-    backend = make_backend("llamacpp", model_path=args.model, tool_mode=args.tool_mode, threads=args.threads,
+    backend = make_backend("llamacpp", model=args.model, tool_mode=args.tool_mode, threads=args.threads,
                            max_tokens=160, ctx_size=4096)
     asyncio.run(measure(backend, system, tools, "right" if args.righthand else "left"))
 

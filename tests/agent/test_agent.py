@@ -57,7 +57,7 @@ def test_paper_scenario_2_in_realtime_restores_the_original_specification(loop, 
 
 def _lockstep_run(tmp_path, name, latency_s=0.6):
     loop = ambulance_loop()
-    config = AgentConfig(timing="lockstep", latency_s=latency_s, transcript_path=tmp_path / f"{name}.jsonl")
+    config = AgentConfig(mode="lockstep", latency_s=latency_s, transcript_path=tmp_path / f"{name}.jsonl")
     messages = {50: PAPER_2A, 400: PAPER_2B}  # at t = 2.0 s and t = 16.0 s
     lanes = []
     with loop, Agent(RulesBackend(), loop.server, config) as agent:
@@ -100,10 +100,10 @@ def test_transcript_records_every_message_call_and_result(tmp_path):
 
 
 def test_emergency_vehicle_wakes_the_agent_and_the_car_makes_way_then_resumes(tmp_path):
-    config = AgentConfig(timing="lockstep", latency_s=0.5, transcript_path=tmp_path / "wake.jsonl")
+    config = AgentConfig(mode="lockstep", latency_s=0.5, transcript_path=tmp_path / "wake.jsonl")
     closest_y = []
     collided = False
-    with ambulance_loop(agent=AgentSetup(RulesBackend(), config, observation_messages=True)) as loop:
+    with ambulance_loop(agent=AgentSetup(RulesBackend(), config.model_copy(update={"observation_messages": True}))) as loop:
         agent, world = loop.agent, loop.world
         for _ in range(1250):  # 50 s
             loop.step()
@@ -127,7 +127,7 @@ def test_emergency_vehicle_wakes_the_agent_and_the_car_makes_way_then_resumes(tm
 
 
 def test_observations_do_not_wake_the_agent_by_default():
-    with ambulance_loop(agent=AgentSetup(RulesBackend(), AgentConfig(timing="lockstep"))) as loop:
+    with ambulance_loop(agent=AgentSetup(RulesBackend(), AgentConfig(mode="lockstep"))) as loop:
         for _ in range(200):  # 8 s: the ambulance comes within the alert distance
             loop.step()
         assert "emergency_vehicle_approaching" in loop.detector.first_times_s
@@ -148,7 +148,7 @@ def test_the_agent_can_reach_its_server_in_another_process():
 
 @pytest.mark.parametrize("timing", ["realtime", "lockstep"])
 def test_steps_are_processed_in_order(loop, server, timing):
-    config = AgentConfig(timing=timing, latency_s=0.0)
+    config = AgentConfig(mode=timing, latency_s=0.0)
     with Agent(RulesBackend(), server, config) as agent:
         futures = [agent.deliver(text, sim_time_s=0.0) for text in ("go 5 m/s", "go 6 m/s", "go 7 m/s")]
         reports = [f.result(10) for f in futures]

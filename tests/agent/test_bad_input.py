@@ -106,7 +106,7 @@ def test_too_many_calls_in_one_answer_are_cut(loop, server):
 
 
 def test_lockstep_needs_a_sim_time(loop, server):
-    with Agent(RulesBackend(), server, AgentConfig(timing="lockstep")) as agent:
+    with Agent(RulesBackend(), server, AgentConfig(mode="lockstep")) as agent:
         with pytest.raises(ValueError, match="sim time"):
             agent.deliver("go 10 m/s")
 

@@ -12,7 +12,8 @@ import pytest
 
 from agentic_mpc.agent.backends.base import ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX, UNPARSED, calls_from_text, load_json_like
-from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig
+from agentic_mpc.agent.backends.openai import OpenAIBackend
+from agentic_mpc.agent.settings import OpenAISettings
 from agentic_mpc.agent.backends.structured import STRUCTURED_INSTRUCTION, answer_schema, render_messages
 from agentic_mpc.agent.messages import Message, ToolCall
 
@@ -159,7 +160,7 @@ def test_the_answer_schema_is_one_tool_with_its_arguments_or_a_reply():
 
 
 def test_the_json_schema_request_and_its_history():
-    backend = OpenAIBackend(OpenAIConfig(tool_mode="json_schema", api_key_env=None))
+    backend = OpenAIBackend(OpenAISettings(tool_mode="json_schema", api_key_env=None))
     call = ToolCall("c1", "run_left_lane", {"v_ref": 0}, '{"v_ref": 0}')
     history = [Message("system", "You drive."), Message("user", "Let them pass."),
                Message("assistant", "", tool_calls=(call,)),

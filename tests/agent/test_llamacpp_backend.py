@@ -6,19 +6,20 @@ from __future__ import annotations
 import pytest
 
 from agentic_mpc.agent.backends import BACKENDS, make_backend
-from agentic_mpc.agent.backends.llamacpp import LlamaCppConfig, ModelFileError, check_gguf
+from agentic_mpc.agent.backends.llamacpp import ModelFileError, check_gguf
+from agentic_mpc.agent.settings import LlamaCppSettings, agent_settings
 
 
 def test_a_missing_model_file_is_a_clear_error(tmp_path):
     with pytest.raises(ModelFileError, match="does not exist"):
-        make_backend("llamacpp", model_path=tmp_path / "nothing.gguf")
+        make_backend("llamacpp", model=tmp_path / "nothing.gguf")
 
 
 def test_a_file_that_is_not_gguf_is_a_clear_error(tmp_path):
     path = tmp_path / "model.gguf"
     path.write_text("<html>a download error page</html>")
     with pytest.raises(ModelFileError, match=r"is not a GGUF model file \(it starts with b'<htm'"):
-        make_backend("llamacpp", model_path=path)
+        make_backend("llamacpp", model=path)
     with pytest.raises(ModelFileError, match="is not a file"):
         check_gguf(tmp_path)
     assert isinstance(ModelFileError("x"), ValueError)
@@ -29,27 +30,25 @@ def test_a_gguf_file_that_llama_cpp_cannot_load_is_a_clear_error(tmp_path):
     path = tmp_path / "truncated.gguf"
     path.write_bytes(b"GGUF" + bytes(60))
     with pytest.raises(ModelFileError, match="llama.cpp could not load"):
-        make_backend("llamacpp", model_path=path)
+        make_backend("llamacpp", model=path)
 
 
-def test_defaults_suit_a_small_shared_machine():
-    config = LlamaCppConfig(model_path="m.gguf")
-    assert (config.threads, config.tool_mode, config.temperature) == (1, "json_schema", 0.0)
+def test_defaults_suit_a_small_shared_machine(tmp_path):
+    (tmp_path / "m.gguf").write_bytes(b"GGUF" + bytes(60))
+    config = LlamaCppSettings(model=tmp_path / "m.gguf")
+    assert (config.threads, config.effective_tool_mode, config.temperature) == (1, "json_schema", 0.0)
     assert "llamacpp" in BACKENDS
 
 
 def test_a_scenario_can_choose_it(tmp_path):
-    from agentic_mpc.scenario.runner import build_backend
-    from agentic_mpc.scenario.schema import AgentSettings
-
     # the file is checked when the scenario is read, before any world starts
     with pytest.raises(ValueError, match="granite.gguf does not exist"):
-        AgentSettings(backend="llamacpp", model=str(tmp_path / "granite.gguf"))
+        agent_settings(backend="llamacpp", model=str(tmp_path / "granite.gguf"))
     fake = tmp_path / "fake.gguf"
     fake.write_bytes(b"GGUF" + bytes(60))  # passes the check, but llama.cpp cannot load it: said when built
-    settings = AgentSettings(backend="llamacpp", model=str(fake), threads=2, ctx_size=1024)
+    settings = agent_settings(backend="llamacpp", model=str(fake), threads=2, ctx_size=1024)
     with pytest.raises(ModelFileError, match="llama.cpp could not load"):
-        build_backend(settings, lefthand=True)
+        settings.build_backend(lefthand=True)
 
 
 def test_a_streamed_answer_is_assembled_into_one_message():

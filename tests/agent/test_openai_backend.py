@@ -8,14 +8,15 @@ import socket
 import pytest
 
 from agentic_mpc.agent import Agent, AgentConfig
-from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig, parse_arguments
+from agentic_mpc.agent.backends.openai import OpenAIBackend, parse_arguments
+from agentic_mpc.agent.settings import OpenAISettings
 from tests.agent.scripted_llm import Delay, Raw, ScriptedLLM, calls, text, tool_call
 
 PAPER_2A = "An ambulance is coming behind us. We'd better let them pass."
 
 
 def backend(llm: ScriptedLLM, **options) -> OpenAIBackend:
-    return OpenAIBackend(OpenAIConfig(base_url=llm.base_url, model="granite-test", api_key_env=None, **options))
+    return OpenAIBackend(OpenAISettings(base_url=llm.base_url, model="granite-test", api_key_env=None, **options))
 
 
 def test_a_well_behaved_model_gives_validated_calls_and_sees_their_results(loop, server):
@@ -118,7 +119,7 @@ def test_an_unreachable_backend_ends_the_step_with_a_clear_error_and_the_car_kee
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]  # nothing listens there once the socket is closed
-    dead = OpenAIBackend(OpenAIConfig(base_url=f"http://127.0.0.1:{port}/v1", api_key_env=None, timeout_s=2.0))
+    dead = OpenAIBackend(OpenAISettings(base_url=f"http://127.0.0.1:{port}/v1", api_key_env=None, timeout_s=2.0))
     config = AgentConfig(backend_attempts=2, retry_backoff_s=0.0, transcript_path=tmp_path / "t.jsonl")
     with Agent(dead, server, config) as agent:
         future = agent.deliver(PAPER_2A)
@@ -145,7 +146,7 @@ def test_tool_calls_written_as_text_are_understood(loop, server):
 def test_the_api_key_is_sent_from_the_named_environment_variable(monkeypatch, loop, server):
     monkeypatch.setenv("AGENTIC_TEST_KEY", "sk-test-123")
     with ScriptedLLM([text("hello")]) as llm:
-        keyed = OpenAIBackend(OpenAIConfig(base_url=llm.base_url, api_key_env="AGENTIC_TEST_KEY"))
+        keyed = OpenAIBackend(OpenAISettings(base_url=llm.base_url, api_key_env="AGENTIC_TEST_KEY"))
         with Agent(keyed, server) as agent:
             report = agent.deliver("Hello!").result(30)
     assert llm.headers[0]["Authorization"] == "Bearer sk-test-123"

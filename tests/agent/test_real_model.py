@@ -70,9 +70,10 @@ def setting() -> Iterator[tuple[Message, tuple[ToolSpec, ...]]]:
 
 @pytest.fixture(scope="module")
 def in_process():
-    from agentic_mpc.agent.backends.llamacpp import LlamaCppBackend, LlamaCppConfig
+    from agentic_mpc.agent.backends.llamacpp import LlamaCppBackend
+    from agentic_mpc.agent.settings import LlamaCppSettings
 
-    backend = LlamaCppBackend(LlamaCppConfig(model_path=MODEL, threads=1, ctx_size=4096, max_tokens=ANSWER_TOKENS))
+    backend = LlamaCppBackend(LlamaCppSettings(model=MODEL, threads=1, ctx_size=4096, max_tokens=ANSWER_TOKENS))
     yield backend
     backend.close()
 
@@ -144,10 +145,11 @@ def test_in_process_every_answer_is_a_valid_call_or_a_reply(in_process, setting)
 
 
 def test_openai_backend_against_xllamacpps_http_server(http_server, setting):
-    from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig
+    from agentic_mpc.agent.backends.openai import OpenAIBackend
+    from agentic_mpc.agent.settings import OpenAISettings
 
     system, tools = setting
-    backend = OpenAIBackend(OpenAIConfig(base_url=http_server, model="smollm2", api_key_env=None, timeout_s=120,
+    backend = OpenAIBackend(OpenAISettings(base_url=http_server, model="smollm2", api_key_env=None, timeout_s=120,
                                          tool_mode="json_schema", max_tokens=ANSWER_TOKENS))
     answers = _answers(backend, system, tools)
     _assert_all_read(answers, tools)

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from agentic_mpc.agent import Agent, AgentConfig
-from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig
+from agentic_mpc.agent.backends.openai import OpenAIBackend
+from agentic_mpc.agent.settings import OpenAISettings
 from tests.agent.conftest import paper_start_config, plain_loop
 from tests.agent.scripted_llm import Delay, ScriptedLLM, calls, text, tool_call
 
@@ -54,7 +55,7 @@ def test_control_steps_are_unchanged_while_the_agent_thinks():
     script = [Delay(THINK_S, calls(tool_call("run_left_lane", {"v_ref": 0}))), text("Done.")]
     with ScriptedLLM(script) as llm, plain_loop(paper_start_config(), pace=1.0) as loop:
         world = loop.world
-        backend = OpenAIBackend(OpenAIConfig(base_url=llm.base_url, api_key_env=None, timeout_s=30))
+        backend = OpenAIBackend(OpenAISettings(base_url=llm.base_url, api_key_env=None, timeout_s=30))
         with Agent(backend, loop.server, AgentConfig(), sim_clock=lambda: world.time_s) as agent:
             loop.step()  # compile before timing
             records = _timed(loop)

@@ -4,7 +4,8 @@ one gets one more round with a note saying how (``AgentConfig.restore_reminder``
 from __future__ import annotations
 
 from agentic_mpc.agent import Agent, AgentConfig
-from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig
+from agentic_mpc.agent.backends.openai import OpenAIBackend
+from agentic_mpc.agent.settings import OpenAISettings
 from agentic_mpc.agent.backends.rules import RulesBackend
 from agentic_mpc.agent.prompt import restore_note, specification_changes
 from tests.agent.scripted_llm import ScriptedLLM, calls, text, tool_call
@@ -17,7 +18,7 @@ ON = AgentConfig(restore_reminder=True)
 
 
 def backend(llm: ScriptedLLM) -> OpenAIBackend:
-    return OpenAIBackend(OpenAIConfig(base_url=llm.base_url, model="scripted", api_key_env=None))
+    return OpenAIBackend(OpenAISettings(base_url=llm.base_url, model="scripted", api_key_env=None))
 
 
 def _yield_script() -> list:
@@ -103,7 +104,7 @@ def test_in_json_schema_mode_the_note_follows_the_models_reply_and_the_restoring
     answers = ['{"name": "run_left_lane", "arguments": {"v_ref": 0}}', '{"reply": "Pulling over."}',
                '{"reply": "We can go on."}', '{"name": "run_center_lane", "arguments": {"v_ref": 15}}',
                '{"reply": "Back to normal."}']
-    structured = OpenAIConfig(base_url="", model="scripted", api_key_env=None, tool_mode="json_schema")
+    structured = OpenAISettings(base_url="", model="scripted", api_key_env=None, tool_mode="json_schema")
     with ScriptedLLM([text(a) for a in answers]) as llm:
         config = structured.model_copy(update={"base_url": llm.base_url})
         with Agent(OpenAIBackend(config), server, ON) as agent:

@@ -7,7 +7,8 @@ import threading
 import time
 
 from agentic_mpc.agent import Agent, AgentConfig
-from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig
+from agentic_mpc.agent.backends.openai import OpenAIBackend
+from agentic_mpc.agent.settings import OpenAISettings
 from agentic_mpc.agent.backends.rules import RulesBackend
 from agentic_mpc.agent.situation import describe_situation
 from agentic_mpc.run.loop import AgentSetup
@@ -37,7 +38,7 @@ def test_a_language_model_gets_the_situation_read_over_mcp_with_the_message(loop
     for _ in range(50):  # 2 s of driving: the situation has a time and a speed
         loop.step()
     script = [calls(tool_call("set_reference_speed", {"v_ref": 10}, "c1")), text("Slower now.")]
-    with ScriptedLLM(script) as llm, Agent(OpenAIBackend(OpenAIConfig(base_url=llm.base_url, api_key_env=None)),
+    with ScriptedLLM(script) as llm, Agent(OpenAIBackend(OpenAISettings(base_url=llm.base_url, api_key_env=None)),
                                            server) as agent:
         report = agent.deliver("Please slow down to 36 km/h.").result(30)
     assert report.applied_calls == [{"tool": "set_reference_speed", "arguments": {"v_ref": 10}}]
@@ -57,8 +58,8 @@ def test_the_rules_backend_is_given_no_situation(loop, server):
 
 
 def test_a_realtime_agent_subscribed_to_emergency_vehicles_wakes_itself_and_makes_way():
-    config = AgentConfig(timing="realtime")
-    with ambulance_loop(agent=AgentSetup(RulesBackend(), config, observation_messages=True), pace=0.25) as loop:
+    config = AgentConfig(mode="realtime")
+    with ambulance_loop(agent=AgentSetup(RulesBackend(), config.model_copy(update={"observation_messages": True})), pace=0.25) as loop:
         driving = threading.Thread(target=loop.run, daemon=True)
         driving.start()
         deadline = time.monotonic() + 30
@@ -77,7 +78,7 @@ def test_a_realtime_agent_subscribed_to_emergency_vehicles_wakes_itself_and_make
 def test_an_agent_in_another_process_watches_the_server_over_http(tmp_path):
     served = Served(tmp_path, "--ambulance-at-s", "1", "--time-scale", "0.25", "--duration-s", "120")
     try:
-        config = AgentConfig(timing="realtime", watch_emergency_vehicles=True)
+        config = AgentConfig(mode="realtime", observation_messages=True)
         with Agent(RulesBackend(yield_lane="left"), served.url, config) as agent:
             deadline = time.monotonic() + 40
             while time.monotonic() < deadline and not any(

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from agentic_mpc.agent_eval.report import summarise
-from agentic_mpc.agent_eval.runner import KeepOpen, agent_config, run_suite
+from agentic_mpc.agent_eval.runner import KeepOpen, run_suite, suite_agent_config
 from agentic_mpc.agent_eval.suite import load_suite
 
 REPO = Path(__file__).resolve().parents[2]
@@ -32,15 +32,16 @@ issue's 5 messages are answered in tests/agent/test_real_model.py too)."""
 
 
 def test_smollm2_answers_a_sample_of_the_suite_with_nothing_unparsed():
-    from agentic_mpc.agent.backends.llamacpp import LlamaCppBackend, LlamaCppConfig
+    from agentic_mpc.agent.backends.llamacpp import LlamaCppBackend
+    from agentic_mpc.agent.settings import LlamaCppSettings
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     suite = load_suite()
     cases = suite.select(categories=SAMPLE, per_category=1)  # the whole suite is eval-agent's job (minutes)
-    model = LlamaCppBackend(LlamaCppConfig(model_path=MODEL, threads=1, ctx_size=4096, max_tokens=128,
+    model = LlamaCppBackend(LlamaCppSettings(model=MODEL, threads=1, ctx_size=4096, max_tokens=128,
                                            tool_mode="json_schema"))
     try:  # one answer per turn: what is judged here is whether the answer is read, not what follows it
-        results = run_suite(suite, cases, lambda lefthand: KeepOpen(model), agent_config(120.0, max_rounds=1))
+        results = run_suite(suite, cases, lambda lefthand: KeepOpen(model), suite_agent_config(LlamaCppSettings(model=MODEL, max_rounds_per_step=1)))
     finally:
         model.close()
     turns = [turn for result in results for turn in result.turns]

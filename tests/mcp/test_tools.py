@@ -40,7 +40,7 @@ def tracking(tools: ControllerTools) -> PathTracking:
 
 def test_run_left_lane_replaces_the_path_tracking_and_keeps_its_weights():
     tools = make_tools()
-    result = tools.run_left_lane(0)
+    result = tools.run_lane("left", 0)
     pt = tracking(tools)
     assert (pt.lane, pt.v_ref_mps, pt.path, pt.weight) == ("left", 0.0, LANES["left"], 2.0)
     assert tools.slot.version == 1 and result["applied"] and result["changed"]
@@ -53,22 +53,22 @@ def test_run_left_lane_replaces_the_path_tracking_and_keeps_its_weights():
 @pytest.mark.parametrize("lane", ["center", "left", "right"])
 def test_each_lane_tool_tracks_its_lane(lane):
     tools = make_tools()
-    getattr(tools, f"run_{lane}_lane")(12.5)
+    tools.run_lane(lane, 12.5)
     assert (tracking(tools).lane, tracking(tools).v_ref_mps, tracking(tools).path) == (lane, 12.5, LANES[lane])
 
 
 def test_set_reference_speed_keeps_the_current_lane():
     tools = make_tools()
-    tools.run_right_lane(10)
+    tools.run_lane("right", 10)
     tools.set_reference_speed(5)
     assert (tracking(tools).lane, tracking(tools).v_ref_mps) == ("right", 5.0)
 
 
 def test_the_speed_limit_is_inclusive_and_comes_from_the_lane_source():
     tools = make_tools(limit=13.89)
-    tools.run_center_lane(13.89)
+    tools.run_lane("center", 13.89)
     with pytest.raises(ToolCallError, match=r"outside \[0, 13.89\]"):
-        tools.run_center_lane(13.9)
+        tools.run_lane("center", 13.9)
 
 
 @pytest.mark.parametrize("bad", [-1, 20.5, math.nan, math.inf, "10", None, True, [10]])
@@ -76,7 +76,7 @@ def test_invalid_speeds_are_refused_and_change_nothing(bad):
     tools = make_tools()
     before = tools.slot.current
     with pytest.raises(ToolCallError, match="v_ref"):
-        tools.run_left_lane(bad)
+        tools.run_lane("left", bad)
     with pytest.raises(ToolCallError, match="v_ref"):
         tools.set_reference_speed(bad)
     assert tools.slot.current is before and tools.slot.version == 0
@@ -85,7 +85,7 @@ def test_invalid_speeds_are_refused_and_change_nothing(bad):
 def test_a_lane_the_road_does_not_have_is_refused():
     tools = make_tools(lanes={"center": LANES["center"], "left": LANES["left"]})
     with pytest.raises(ToolCallError, match="no right lane.*center, left"):
-        tools.run_right_lane(10)
+        tools.run_lane("right", 10)
     assert tools.slot.version == 0
 
 
@@ -112,7 +112,7 @@ def test_invalid_directions_are_refused(bad):
 
 def test_scheduled_changes_apply_at_their_time_in_call_order():
     tools = make_tools()
-    preview = tools.run_left_lane(0, apply_at_s=2.0)
+    preview = tools.run_lane("left", 0, apply_at_s=2.0)
     assert not preview["applied"] and preview["attached"][1]["lane"] == "left"
     # the second call previews on top of the first pending one
     preview = tools.set_reference_speed(7, apply_at_s=2.0)
@@ -132,11 +132,11 @@ def test_scheduled_changes_apply_at_their_time_in_call_order():
 def test_a_scheduled_call_with_bad_arguments_fails_at_once():
     tools = make_tools()
     with pytest.raises(ToolCallError):
-        tools.run_left_lane(99, apply_at_s=1.0)
+        tools.run_lane("left", 99, apply_at_s=1.0)
     assert tools.pending() == []
 
 
 def test_a_tuple_lane_source_works_too():
     tools = ControllerTools(make_tools().slot, lambda: (LANES, 30.0))
-    tools.run_left_lane(25)
+    tools.run_lane("left", 25)
     assert tracking(tools).v_ref_mps == 25.0

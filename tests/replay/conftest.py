@@ -4,27 +4,12 @@ from pathlib import Path
 
 import pytest
 
-from agentic_mpc.scenario.runner import run_scenario
-from agentic_mpc.scenario.schema import load_scenario
+from tests.run.conftest import SCENARIOS, plain_run, short_run
 
-SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
-
-
-def _run(tmp_path_factory, file: str, variant: str, duration_s: float) -> Path:
-    scenario = load_scenario(SCENARIOS / file).variant(variant).with_seed(0)
-    scenario = scenario.model_copy(update={"duration_s": duration_s})
-    out = tmp_path_factory.mktemp(f"{scenario.name}-{variant}")
-    run_scenario(scenario, out)
-    return out
-
-
-@pytest.fixture(scope="session")
-def plain_run(tmp_path_factory) -> Path:
-    """Scenario 1 in the plain world, 4 s: the passenger asks to pass the obstacle on the right."""
-    return _run(tmp_path_factory, "paper_steering_preference_plain.yaml", "message_right", 4.0)
+__all__ = ["SCENARIOS", "plain_run"]  # plain_run: the fixture, shared with tests/run
 
 
 @pytest.fixture(scope="session")
 def emergency_run(tmp_path_factory) -> Path:
     """Scenario 2 in SUMO, 15 s: the passenger's message at 1 s, the ambulance passes, the agent resumes."""
-    return _run(tmp_path_factory, "paper_emergency_response.yaml", "yield", 15.0)
+    return short_run(tmp_path_factory, "paper_emergency_response.yaml", "yield", 15.0)

@@ -10,7 +10,6 @@ from pathlib import Path
 import pytest
 
 from agentic_mpc.commands import with_agent_settings
-from agentic_mpc.scenario.runner import build_backend
 from agentic_mpc.scenario.schema import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
@@ -25,13 +24,14 @@ def test_overrides_are_read_as_yaml_and_validated_like_the_file():
     agent = scenario.agent
     assert (agent.model, agent.temperature, agent.max_tokens, agent.tool_mode) == ("1.5", 0.3, 96, "json_schema")
     assert agent.extra_body == {"top_p": 0.9} and agent.extra_prompt == "Be brief." and agent.mode == "realtime"
-    backend = build_backend(agent, lefthand=True)  # the options reach the backend's own config
+    backend = agent.build_backend(lefthand=True)  # the options reach the backend's own config
     assert (backend.config.temperature, backend.config.max_tokens, backend.config.extra_body) == (0.3, 96, {"top_p": 0.9})
 
 
 @pytest.mark.parametrize("pair, said", [
     (("colour", "blue"), "--agent colour: not an agent setting"),
-    (("temperature", "hot"), "--agent temperature: Input should be a valid number"),
+    (("max_rounds_per_step", "many"), "--agent max_rounds_per_step: Input should be a valid integer"),
+    (("temperature", "0.2"), "--agent temperature: not an agent setting of the rules backend"),
     (("max_tokens", "0"), "--agent max_tokens:"),
 ])
 def test_a_bad_override_names_its_key(pair, said):

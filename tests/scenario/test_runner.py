@@ -5,7 +5,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from agentic_mpc.scenario.metrics import TIMING_COLUMNS
+from agentic_mpc.run.files import TIMING_COLUMNS
 from agentic_mpc.scenario.runner import run_scenario
 from agentic_mpc.scenario.schema import load_scenario
 

@@ -7,7 +7,7 @@ ego's side swipe.
 
 from __future__ import annotations
 
-from agentic_mpc.scenario.metrics import MetricsRecorder
+from agentic_mpc.run.metrics import MetricsRecorder
 from agentic_mpc.sumo.config import EgoStart, SumoConfig, VehicleSpawn
 from agentic_mpc.sumo.scenarios import net_files
 from agentic_mpc.sumo.world import SumoWorld

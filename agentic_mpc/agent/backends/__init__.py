@@ -7,27 +7,27 @@ from __future__ import annotations
 from typing import Any
 
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
+from agentic_mpc.agent.settings import BACKENDS
 
-BACKENDS = ("rules", "openai", "llamacpp")
 
+def make_backend(name: str, *, lefthand: bool = True, **options: Any) -> Backend:
+    """A backend by name with ``options`` as its settings (agent/settings.py: ``OpenAISettings`` fields for
+    ``openai``, ``LlamaCppSettings`` for ``llamacpp``, which checks and loads the model file now and raises
+    ``ModelFileError``, a ``ValueError``, if it is missing or not GGUF). ``lefthand``: the road the rules
+    backend pulls over on (its ``yield_lane`` default)."""
+    from pydantic import ValidationError
 
-def make_backend(name: str, **options: Any) -> Backend:
-    """A backend by name; ``options`` go to its constructor (``OpenAIConfig`` fields for ``openai``,
-    ``LlamaCppConfig`` fields for ``llamacpp``: it checks and loads the model file now, and raises
-    ``ModelFileError``, a ``ValueError``, if it is missing or not GGUF)."""
-    if name == "rules":
-        from agentic_mpc.agent.backends.rules import RulesBackend
+    from agentic_mpc.agent.settings import BACKEND_SETTINGS, agent_settings
 
-        return RulesBackend(**options)
-    if name == "openai":
-        from agentic_mpc.agent.backends.openai import OpenAIBackend, OpenAIConfig
-
-        return OpenAIBackend(OpenAIConfig(**options))
-    if name == "llamacpp":
-        from agentic_mpc.agent.backends.llamacpp import LlamaCppBackend, LlamaCppConfig
-
-        return LlamaCppBackend(LlamaCppConfig(**options))
-    raise ValueError(f"unknown backend {name!r} (choose from {', '.join(BACKENDS)})")
+    if name not in BACKEND_SETTINGS:
+        raise ValueError(f"unknown backend {name!r} (choose from {', '.join(BACKEND_SETTINGS)})")
+    try:
+        settings = agent_settings(options, backend=name)
+    except ValidationError as error:  # the check's own error (ModelFileError, ...) where there is one
+        first = error.errors()[0]
+        cause = first.get("ctx", {}).get("error")
+        raise cause if isinstance(cause, ValueError) else ValueError(f"{first['loc'][-1]}: {first['msg']}") from None
+    return settings.build_backend(lefthand)
 
 
 __all__ = ["BACKENDS", "Backend", "BackendError", "BackendReply", "ToolSpec", "make_backend"]

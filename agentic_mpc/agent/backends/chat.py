@@ -17,25 +17,11 @@ import json
 from collections.abc import Sequence
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
-
 from agentic_mpc.agent.backends.base import BackendError, BackendReply, ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX, calls_from_text, parse_arguments
-from agentic_mpc.agent.backends.structured import ToolMode, render_messages, response_format
+from agentic_mpc.agent.backends.structured import render_messages, response_format
 from agentic_mpc.agent.messages import Message, ToolCall
-
-
-class ChatOptions(BaseModel):
-    """Options every chat backend has."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-    tool_mode: ToolMode = Field(
-        "native", description="native: function tools and the endpoint's tool_calls; json_schema: the answer is "
-                              "constrained to one tool call or a reply by a JSON schema built from the MCP tools")
-    temperature: float = Field(0.0, ge=0, le=2)
-    max_tokens: int | None = Field(512, ge=1)
-    extra_body: dict[str, Any] = Field(default_factory=dict, description="merged into every request body")
+from agentic_mpc.agent.settings import ChatSettings
 
 
 class ChatBackend:
@@ -43,7 +29,7 @@ class ChatBackend:
 
     name = "chat"
     reads_situation = True
-    config: ChatOptions
+    config: ChatSettings
 
     def __init__(self) -> None:
         self._ids = itertools.count(1)
@@ -51,10 +37,10 @@ class ChatBackend:
 
     def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> dict[str, Any]:
         body: dict[str, Any] = {
-            "messages": render_messages(history, self.config.tool_mode),
+            "messages": render_messages(history, self.config.effective_tool_mode),
             "temperature": self.config.temperature,
         }
-        if self.config.tool_mode == "json_schema":
+        if self.config.effective_tool_mode == "json_schema":
             body["response_format"] = response_format(tools)
         elif tools:
             body["tools"] = [t.to_openai() for t in tools]
@@ -99,7 +85,7 @@ class ChatBackend:
                 continue
             calls.append(self._call(call_id, function["name"], function.get("arguments")))
         if not calls and text:
-            structured = self.config.tool_mode == "json_schema"
+            structured = self.config.effective_tool_mode == "json_schema"
             text, read = calls_from_text(text, tool_names, self._new_text_id, structured=structured)
             calls.extend(read)
         return BackendReply(text, tuple(calls))

@@ -24,11 +24,8 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
-
 from agentic_mpc.agent.backends.base import BackendError
-from agentic_mpc.agent.backends.chat import ChatBackend, ChatOptions
-from agentic_mpc.agent.backends.structured import ToolMode
+from agentic_mpc.agent.backends.chat import ChatBackend
 
 GGUF_MAGIC = b"GGUF"
 INSTALL_HINT = 'the llamacpp backend needs xllamacpp: pip install "agentic-mpc[llm]"'
@@ -36,17 +33,6 @@ INSTALL_HINT = 'the llamacpp backend needs xllamacpp: pip install "agentic-mpc[l
 
 class ModelFileError(ValueError):
     """The model file does not exist, cannot be read, or is not a GGUF file."""
-
-
-class LlamaCppConfig(ChatOptions):
-    model_path: Path = Field(..., description="the GGUF model file")
-    tool_mode: ToolMode = Field("json_schema", description="json_schema (default): output constrained by the "
-                                                           "tools' schema; native: the chat template's tool calling")
-    threads: int = Field(1, ge=1, le=256, description="CPU threads for generation and prompt processing")
-    ctx_size: int = Field(8192, ge=256, description="context size in tokens")
-    gpu_layers: int = Field(-1, ge=-1, description="layers offloaded to a GPU (-1: llama.cpp decides; 0: none), "
-                                                  "if the installed wheel has a GPU build")
-    verbose: bool = Field(False, description="llama.cpp's own log on stderr")
 
 
 def check_gguf(path: str | Path) -> Path:
@@ -79,10 +65,10 @@ class LlamaCppBackend(ChatBackend):
 
     name = "llamacpp"
 
-    def __init__(self, config: LlamaCppConfig) -> None:
+    def __init__(self, config: Any) -> None:  # a LlamaCppSettings (agent/settings.py), its model file checked
         super().__init__()
-        self.config: LlamaCppConfig = config
-        path = check_gguf(config.model_path)
+        self.config = config
+        path = check_gguf(config.model)
         xlc = _import_xllamacpp()
         params = xlc.CommonParams()
         params.model.path = str(path)

@@ -41,22 +41,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import httpx
-from pydantic import Field
 
 from agentic_mpc.agent.backends.base import BackendError, ToolSpec
 from agentic_mpc.agent.backends.call_parsing import parse_arguments
-from agentic_mpc.agent.backends.chat import ChatBackend, ChatOptions
+from agentic_mpc.agent.backends.chat import ChatBackend
 from agentic_mpc.agent.messages import Message
-
-DEFAULT_BASE_URL = "http://localhost:11434/v1"
-DEFAULT_MODEL = "granite4:micro"
-
-
-class OpenAIConfig(ChatOptions):
-    base_url: str = Field(DEFAULT_BASE_URL, description="the endpoint's /v1 URL")
-    model: str = DEFAULT_MODEL
-    api_key_env: str | None = Field("OPENAI_API_KEY", description="environment variable holding the API key")
-    timeout_s: float = Field(120.0, gt=0, description="per HTTP request")
+from agentic_mpc.agent.settings import OpenAISettings
 
 
 class OpenAIBackend(ChatBackend):
@@ -64,9 +54,9 @@ class OpenAIBackend(ChatBackend):
 
     name = "openai"
 
-    def __init__(self, config: OpenAIConfig | None = None) -> None:
+    def __init__(self, config: OpenAISettings | None = None) -> None:
         super().__init__()
-        self.config: OpenAIConfig = config or OpenAIConfig()
+        self.config: OpenAISettings = config or OpenAISettings()
         self._client: httpx.AsyncClient | None = None
 
     @property
@@ -108,4 +98,4 @@ class OpenAIBackend(ChatBackend):
             self._client = None
 
 
-__all__ = ["DEFAULT_BASE_URL", "DEFAULT_MODEL", "OpenAIBackend", "OpenAIConfig", "parse_arguments"]
+__all__ = ["OpenAIBackend", "parse_arguments"]

@@ -66,6 +66,7 @@ from agentic_mpc.agent.backends.rules_parsing import (
 )
 from agentic_mpc.agent.backends.rules_state import DrivingState, driving_states
 from agentic_mpc.agent.messages import Message, ToolCall
+from agentic_mpc.mcp.protocol import DIRECTION_ARGUMENT, SPEED_ARGUMENT, ToolName, lane_tool_name
 
 __all__ = [
     "KMH_TO_MPS",
@@ -196,22 +197,23 @@ class RulesBackend:
             plan.notes.append("Understood which lane not to use; staying in the current lane.")
 
         if meaning.steering in ("left", "right"):
-            plan.calls.append(("set_preferred_steering_direction", {"direction": meaning.steering}))
+            plan.calls.append((ToolName.SET_PREFERRED_STEERING_DIRECTION, {DIRECTION_ARGUMENT: meaning.steering}))
         elif meaning.steering == "clear":
-            plan.calls.append(("clear_preferred_steering_direction", {}))
+            plan.calls.append((ToolName.CLEAR_PREFERRED_STEERING_DIRECTION, {}))
         elif meaning.steering == "conflict":
             plan.notes.append("You mentioned both sides; please tell me which one to prefer.")
         elif meaning.restore_all and initial.steering != current.steering:
             if initial.steering is None:
-                plan.calls.append(("clear_preferred_steering_direction", {}))
+                plan.calls.append((ToolName.CLEAR_PREFERRED_STEERING_DIRECTION, {}))
             else:
-                plan.calls.append(("set_preferred_steering_direction", {"direction": initial.steering}))
+                plan.calls.append((ToolName.SET_PREFERRED_STEERING_DIRECTION, {DIRECTION_ARGUMENT: initial.steering}))
 
         if lane_call is not None and lane_call[1] is not None:
             lane, v = lane_call
-            plan.calls.append((f"run_{lane}_lane", {"v_ref": speeds.tidy(min(v, v_max) if v_max is not None else v)}))
+            v = min(v, v_max) if v_max is not None else v
+            plan.calls.append((lane_tool_name(lane), {SPEED_ARGUMENT: speeds.tidy(v)}))
         elif speed is not None and meaning.emergency is None:
-            plan.calls.append(("set_reference_speed", {"v_ref": speeds.tidy(speed)}))
+            plan.calls.append((ToolName.SET_REFERENCE_SPEED, {SPEED_ARGUMENT: speeds.tidy(speed)}))
         if meaning.bare_number and not meaning.speeds:
             plan.notes.append("Please give the speed with a unit (km/h, mph or m/s).")
         if meaning.change_negated and speed is None:

@@ -6,13 +6,13 @@ from agentic_mpc.agent.backends.base import ToolSpec
 from agentic_mpc.agent.backends.rules_lexicon import SLOW_DOWN_FACTOR, SPEED_UP_FACTOR
 from agentic_mpc.agent.backends.rules_parsing import Interpretation
 from agentic_mpc.agent.backends.rules_state import DrivingState
+from agentic_mpc.mcp.protocol import SPEED_ARGUMENT
 
 
 def speed_limit(tools: dict[str, ToolSpec]) -> float | None:
-    for name in ("set_reference_speed", "run_center_lane", "run_left_lane", "run_right_lane"):
-        if name in tools:
-            return tools[name].number_bounds("v_ref")[1]
-    return None
+    """The largest speed the tools accept: the upper bound of their speed argument (the road's limit)."""
+    bounds = [spec.number_bounds(SPEED_ARGUMENT)[1] for spec in tools.values()]
+    return next((bound for bound in bounds if bound is not None), None)
 
 
 def explicit_speed(meaning: Interpretation, current: DrivingState, initial: DrivingState) -> float | None:

@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import Any, Literal
+from typing import Any
 
 from agentic_mpc.agent.backends.base import ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX
 from agentic_mpc.agent.messages import Message, ToolCall
+from agentic_mpc.agent.settings import ToolMode
 
-ToolMode = Literal["native", "json_schema"]
 TOOL_MODES: tuple[str, ...] = ("native", "json_schema")
 REPLY_MAX_CHARS = 300
 

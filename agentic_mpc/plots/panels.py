@@ -1,107 +1,26 @@
-"""Bird's-eye panels that zoom to where things happen (the places of :mod:`agentic_mpc.plot_zoom`).
+"""Bird's-eye panels that zoom to where things happen (the places of :mod:`agentic_mpc.plots.places`).
 
 A thin overview of the whole road with the windows numbered on it, then a row of zoomed panels per variant
 (one per window): the road's surface, edges, lane lines and centre lines, every trial's path, the stopped
 cars, and one trial's vehicles at one moment as their footprints (rectangles turned with their heading),
 coloured by class: the ego green, traffic grey, emergency vehicles red with a blue outline (their track
-dotted), stopped cars dark. The colours are the replay's. Each panel keeps equal scales and has a 10 m bar.
+dotted), stopped cars dark (:mod:`agentic_mpc.plots.drawing`: the replay's colours). Each panel keeps equal
+scales and has a 10 m bar.
 """
 
 from __future__ import annotations
 
-import math
 import textwrap
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from agentic_mpc.plot_zoom import RunFiles, Window, snapshot_time
-
-CLASS_COLOURS = {"ego": ("#16a34a", "#052e16"), "traffic": ("#94a3b8", "#0f172a"),
-                 "emergency": ("#dc2626", "#1d4ed8"), "stopped": ("#374151", "#111827")}
-"""(fill, outline) of a footprint by class, as in the replay."""
-CLASS_LABELS = {"ego": "ego", "traffic": "traffic", "emergency": "emergency vehicle",
-                "stopped": "stopped car / obstacle"}
-DEFAULT_LANE_WIDTH_M = 3.5
+from agentic_mpc.plots.drawing import CLASS_COLOURS, CLASS_LABELS, draw_obstacles, draw_road, footprint
+from agentic_mpc.plots.places import Window, snapshot_time
+from agentic_mpc.plots.runs import PlottedRun
 
 
-def road_lines(lanes: Sequence[Any], lane_width_m: float | None = None) -> dict[str, list[np.ndarray]]:
-    """Polylines of a road from its lane centre lines: ``centres``, ``boundaries`` between adjacent lanes and
-    ``edges`` (left, right): the outermost lanes shifted outwards by half a lane width (by default the
-    smallest distance between adjacent centre lines at their first points)."""
-    if not lanes:
-        return {"centres": [], "boundaries": [], "edges": []}
-    first = np.array([lane.coordinates[0] for lane in lanes])
-    offsets = lanes[0].lateral_offset(first[:, 0], first[:, 1])  # + left: orders the lanes across the road
-    order = np.argsort(offsets)
-    gaps = np.diff(offsets[order])
-    if lane_width_m is None:
-        real = gaps[gaps > 1e-6]
-        lane_width_m = float(real.min()) if real.size else DEFAULT_LANE_WIDTH_M
-    ordered = [lanes[i] for i in order]  # right to left
-    boundaries = [lane.parallel(gap / 2).coordinates for lane, gap in zip(ordered[:-1], gaps) if gap > 1e-6]
-    edges = [ordered[-1].parallel(lane_width_m / 2).coordinates, ordered[0].parallel(-lane_width_m / 2).coordinates]
-    return {"centres": [lane.coordinates for lane in lanes], "boundaries": boundaries, "edges": edges}
-
-
-def _draw_road(ax: Any, road: dict[str, list[np.ndarray]], view: Any, surface: bool = True) -> None:
-    if surface and len(road["edges"]) == 2:
-        left, right = (view(edge) for edge in road["edges"])
-        ax.fill(np.r_[left[:, 0], right[::-1, 0]], np.r_[left[:, 1], right[::-1, 1]], color="0.95", lw=0, zorder=0)
-    for line in road["centres"]:
-        xy = view(line)
-        ax.plot(xy[:, 0], xy[:, 1], color="0.8", lw=0.6, ls=":", zorder=0.2)
-    for line in road["boundaries"]:
-        xy = view(line)
-        ax.plot(xy[:, 0], xy[:, 1], color="0.55", lw=0.8, ls=(0, (6, 6)), zorder=0.3)
-    for line in road["edges"]:
-        xy = view(line)
-        ax.plot(xy[:, 0], xy[:, 1], color="0.3", lw=1.3, zorder=0.3)
-
-
-def footprint(ax: Any, view: Any, x: float, y: float, heading: float, length: float, width: float, cls: str,
-              alpha: float = 1.0) -> list[Any]:
-    """A vehicle as its rectangle turned by ``heading``, centred on (x, y), with a windscreen at the front;
-    returns the two patches (an animation removes them for the next frame)."""
-    from matplotlib.patches import Polygon
-
-    fill, outline = CLASS_COLOURS[cls]
-    c, s = math.cos(heading), math.sin(heading)
-
-    def rect(u0: float, u1: float, w0: float, w1: float) -> np.ndarray:
-        local = np.array([[u0, w0], [u1, w0], [u1, w1], [u0, w1]])
-        return view(np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]]))
-
-    body = rect(-length / 2, length / 2, -width / 2, width / 2)
-    screen = rect(0.12 * length, 0.26 * length, -0.38 * width, 0.38 * width)
-    return [ax.add_patch(Polygon(body, closed=True, facecolor=fill, edgecolor=outline, lw=1.0, alpha=alpha, zorder=4)),
-            ax.add_patch(Polygon(screen, closed=True, facecolor=outline, edgecolor="none", alpha=0.55 * alpha,
-                                 zorder=4.1))]
-
-
-def _draw_obstacles(ax: Any, view: Any, run: RunFiles) -> set[str]:
-    """J2's discs (dashed outlines) and, where they line up (a SUMO stopped car), the car's footprint."""
-    from matplotlib.patches import Circle
-
-    drawn = set()
-    for _, discs in run.obstacles:
-        for x, y, radius in discs:
-            (u, v), = view(np.array([[x, y]]))
-            single = len(discs) == 1
-            ax.add_patch(Circle((u, v), radius, facecolor=CLASS_COLOURS["stopped"][0] if single else "none",
-                                alpha=0.5 if single else 0.6, edgecolor="0.2", lw=0.7, ls="-" if single else "--",
-                                zorder=3))
-        if len(discs) > 1:
-            ends = max(((a, b) for a in discs for b in discs), key=lambda ab: math.dist(ab[0][:2], ab[1][:2]))
-            length, width = run.sizes.get("obstacle", (4.5, 1.8))
-            footprint(ax, view, float(discs[:, 0].mean()), float(discs[:, 1].mean()),
-                      math.atan2(ends[1][1] - ends[0][1], ends[1][0] - ends[0][0]), length, width, "stopped")
-        drawn.add("stopped")
-    return drawn
-
-
-def _draw_snapshot(ax: Any, window: Window, run: RunFiles, t: float) -> set[str]:
+def _draw_snapshot(ax: Any, window: Window, run: PlottedRun, t: float) -> set[str]:
     """``run``'s vehicles at time ``t``: the traffic frame nearest ``t``, emergency tracks dotted, the ego."""
     drawn = {"ego"}
     traffic = run.traffic
@@ -128,18 +47,18 @@ def _draw_snapshot(ax: Any, window: Window, run: RunFiles, t: float) -> set[str]
     return drawn
 
 
-def draw_panel(ax: Any, window: Window, road: dict[str, list[np.ndarray]], runs: list[RunFiles], colour: str,
-               snapshot: RunFiles | None) -> set[str]:
+def draw_panel(ax: Any, window: Window, road: dict[str, list[np.ndarray]], runs: list[PlottedRun], colour: str,
+               snapshot: PlottedRun | None) -> set[str]:
     """One zoomed panel: road, every run's path in ``colour``, obstacles, ``snapshot``'s vehicles.
     Returns the classes drawn (for the legend)."""
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
     (u0, u1), (v0, v1) = window.limits()
-    _draw_road(ax, road, window.view)
+    draw_road(ax, road, window.view)
     for run in runs:
         xy = window.view(run.trajectory[["x_m", "y_m"]].to_numpy(dtype=float))
         ax.plot(xy[:, 0], xy[:, 1], color=colour, lw=1.3, alpha=0.85, zorder=2.5)
-    drawn = _draw_obstacles(ax, window.view, runs[0]) if runs else set()
+    drawn = draw_obstacles(ax, window.view, runs[0].obstacle_shapes()) if runs else set()
     t = snapshot_time(snapshot, window) if snapshot is not None else None
     if snapshot is not None and t is not None:
         drawn |= _draw_snapshot(ax, window, snapshot, t)
@@ -169,12 +88,12 @@ def panel_title(number: int, window: Window) -> str:
     return f"[{number}] {name}{more}"
 
 
-def draw_overview(ax: Any, road: dict[str, list[np.ndarray]], rows: dict[str, list[RunFiles]],
+def draw_overview(ax: Any, road: dict[str, list[np.ndarray]], rows: dict[str, list[PlottedRun]],
                   colours: dict[str, str], windows: list[Window]) -> None:
     """The whole road, every path, the obstacles and the numbered windows, at equal scales."""
     from matplotlib.patches import Polygon
 
-    _draw_road(ax, {**road, "boundaries": []}, lambda xy: np.asarray(xy), surface=False)
+    draw_road(ax, {**road, "boundaries": []}, np.asarray, surface=False)
     xs, ys = [], []
     for variant, runs in rows.items():
         for run in runs:
@@ -183,7 +102,7 @@ def draw_overview(ax: Any, road: dict[str, list[np.ndarray]], rows: dict[str, li
             ys.append(run.trajectory["y_m"].to_numpy())
     first = next((runs[0] for runs in rows.values() if runs), None)
     if first is not None:
-        _draw_obstacles(ax, lambda xy: np.asarray(xy), first)
+        draw_obstacles(ax, np.asarray, first.obstacle_shapes())
     for number, window in enumerate(windows, 1):
         corners = window.corners()
         ax.add_patch(Polygon(corners, closed=True, fill=False, edgecolor="k", lw=1.1, zorder=5))
@@ -205,7 +124,7 @@ LEFT_IN, RIGHT_IN, GAP_IN = 0.8, 0.25, 0.45
 """Margins of the fixed layout (inches): room for the row labels and tick labels, no layout engine to run."""
 
 
-def places_layout(windows: list[Window], road: dict[str, list[np.ndarray]], runs: list[RunFiles], n_rows: int,
+def places_layout(windows: list[Window], road: dict[str, list[np.ndarray]], runs: list[PlottedRun], n_rows: int,
                   width_in: float) -> dict[str, Any]:
     """Sizes in inches of the overview and the panels for a figure ``width_in`` wide: one scale (inches per
     metre) for every panel, so that widths follow the windows' lengths; ``height`` is the whole block's."""
@@ -240,7 +159,7 @@ def legend_handles(colours: dict[str, str], classes: set[str]) -> list[Any]:
     return handles
 
 
-def draw_places(fig: Any, top_in: float, rows: dict[str, list[RunFiles]], colours: dict[str, str],
+def draw_places(fig: Any, top_in: float, rows: dict[str, list[PlottedRun]], colours: dict[str, str],
                 road: dict[str, list[np.ndarray]], windows: list[Window], layout: dict[str, Any]) -> list[Any]:
     """The overview and one row of panels per variant of ``rows``, ``top_in`` inches below the top of
     ``fig`` (sized by :func:`places_layout`); the legend goes above the overview. Returns the axes,

@@ -1,4 +1,4 @@
-"""Where things happen on a long road, for the zoomed bird's-eye panels (:mod:`agentic_mpc.plot_panels`).
+"""Where things happen on a long road, for the zoomed bird's-eye panels (:mod:`agentic_mpc.plots.panels`).
 
 A run's *places* come from its files: each stopped car (obstacles.csv), where an ambulance passes the ego (or
 where it is held up closest behind it, when it never passes), the agent's tool calls when they take effect
@@ -11,14 +11,13 @@ No matplotlib here: the windows are plain numbers (the tests check them without 
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pandas as pd
+
+from agentic_mpc.plots.runs import PlottedRun
 
 KIND_RANK = {"stopped car": 0, "obstacle": 0, "ambulance passes": 1, "ambulance held up": 2, "tool call": 3,
              "lane change": 4, "swerve": 5}
@@ -42,73 +41,6 @@ class Event:
     run: str
     reach_m: float = 0.0
     """How far along the road around ``s`` the place reaches (an ambulance held up behind: to it)."""
-
-
-@dataclass
-class RunFiles:
-    """What the panels need of one run directory; ``trajectory`` has an ``s`` column (the ego's road s)."""
-
-    name: str
-    variant: str
-    trajectory: pd.DataFrame
-    traffic: pd.DataFrame
-    events: pd.DataFrame
-    obstacles: list[tuple[str, np.ndarray]]  # (id, discs (n, 3): x, y, radius)
-    sizes: dict[str, tuple[float, float]]
-    ego_size: tuple[float, float]
-
-    def size_of(self, vehicle_id: str, type_id: str, vclass: str) -> tuple[float, float]:
-        """(length, width) of a traffic vehicle, as the replay finds it (route files' vTypes, else by class)."""
-        from agentic_mpc.replay.data import DEFAULT_SIZES
-
-        for key in ("@" + vehicle_id, type_id, type_id.split("@")[0]):
-            if key in self.sizes:
-                return self.sizes[key]
-        return DEFAULT_SIZES.get(vclass, DEFAULT_SIZES["passenger"])
-
-    def ego_at(self, t: float) -> tuple[float, float, float]:
-        """The ego's (x, y, heading) at time ``t`` (the nearest recorded step)."""
-        i = int(np.clip(np.searchsorted(self.trajectory["time_s"].to_numpy(), t), 0, len(self.trajectory) - 1))
-        row = self.trajectory.iloc[i]
-        return float(row["x_m"]), float(row["y_m"]), float(row.get("phi_rad", 0.0))
-
-    def time_at_s(self, s: float) -> float | None:
-        """The first time the ego reached road position ``s``, None if it never did."""
-        reached = np.flatnonzero(self.trajectory["s"].to_numpy() >= s)
-        return float(self.trajectory["time_s"].iloc[reached[0]]) if reached.size else None
-
-
-def _csv(path: Path) -> pd.DataFrame:
-    return pd.read_csv(path) if path.is_file() and path.stat().st_size > 0 else pd.DataFrame()
-
-
-def read_run(directory: Path, obstacles: list[tuple[str, np.ndarray]] | None = None, variant: str = "") -> RunFiles:
-    """A run directory's trajectory, traffic, events, obstacles (or ``obstacles`` given) and vehicle sizes."""
-    from agentic_mpc.replay.data import DEFAULT_SIZES, vehicle_sizes
-
-    directory = Path(directory)
-    trajectory = _csv(directory / "trajectory.csv")
-    trajectory = trajectory[np.isfinite(trajectory["x_m"]) & np.isfinite(trajectory["y_m"])].reset_index(drop=True)
-    if "road_s_m" in trajectory and trajectory["road_s_m"].notna().all():
-        trajectory["s"] = trajectory["road_s_m"].to_numpy(dtype=float)
-    else:  # no road position recorded: the distance driven
-        steps = np.hypot(np.diff(trajectory["x_m"]), np.diff(trajectory["y_m"]))
-        trajectory["s"] = np.concatenate([[0.0], np.cumsum(steps)])
-    traffic = _csv(directory / "traffic.csv")
-    if not traffic.empty:
-        flagged = traffic["emergency"].astype(str).str.lower().eq("true")
-        traffic["emergency"] = flagged | traffic["vclass"].eq("emergency")
-    if obstacles is None:
-        table = _csv(directory / "obstacles.csv")
-        obstacles = [] if table.empty else [(str(key), rows[["x_m", "y_m", "radius_m"]].to_numpy(dtype=float))
-                                            for key, rows in table.groupby("id", dropna=False, sort=False)]
-    scenario: dict[str, Any] = {}
-    if (directory / "scenario.json").is_file():
-        scenario = json.loads((directory / "scenario.json").read_text(encoding="utf-8"))
-    sizes = vehicle_sizes(scenario, [])
-    ego_type = (scenario.get("simulation") or {}).get("ego_type_id", "ego")
-    return RunFiles(str(directory), variant or str(scenario.get("variant", "")), trajectory, traffic,
-                    _csv(directory / "events.csv"), obstacles, sizes, sizes.get(ego_type, DEFAULT_SIZES["ego"]))
 
 
 def tool_calls(events: pd.DataFrame) -> list[tuple[float, str]]:
@@ -136,7 +68,7 @@ def ambulance_distance(trajectory: pd.DataFrame, traffic: pd.DataFrame) -> pd.Da
     return merged
 
 
-def find_events(run: RunFiles) -> list[Event]:
+def find_events(run: PlottedRun) -> list[Event]:
     """Every place of ``run``: obstacles, ambulance passes (or hold-ups), tool calls, lane changes, swerves."""
     tr = run.trajectory
     if tr.empty:
@@ -148,11 +80,12 @@ def find_events(run: RunFiles) -> list[Event]:
         return Event(kind, label, when, s[i], x[i], y[i], run.name)
 
     found = []
-    for obstacle_id, discs in run.obstacles:
+    for obstacle in run.obstacles:
+        discs = np.array(obstacle.discs)
         cx, cy = discs[:, 0].mean(), discs[:, 1].mean()
         i = int(np.argmin(np.hypot(x - cx, y - cy)))  # where the ego comes alongside
         kind = "stopped car" if len(discs) > 1 else "obstacle"
-        label = kind if obstacle_id in ("obstacle", "", "nan") else f"{kind} {obstacle_id}"
+        label = kind if obstacle.id in ("obstacle", "", "nan") else f"{kind} {obstacle.id}"
         found.append(Event(kind, label, t[i], s[i], float(cx), float(cy), run.name))
     for vehicle_id, track in ambulance_distance(tr, run.traffic).groupby("id"):
         d = track["distance_m"].to_numpy(dtype=float)
@@ -251,7 +184,7 @@ def _chord(line: np.ndarray, near: np.ndarray, half_m: float) -> tuple[np.ndarra
     return line[i], math.atan2(b[1] - a[1], b[0] - a[0])
 
 
-def _ego_point(runs: list[RunFiles], s: float) -> np.ndarray | None:
+def _ego_point(runs: list[PlottedRun], s: float) -> np.ndarray | None:
     """The ego's position at road position ``s`` in the first run that drove there."""
     for run in runs:
         along = np.maximum.accumulate(run.trajectory["s"].to_numpy(dtype=float))
@@ -261,7 +194,7 @@ def _ego_point(runs: list[RunFiles], s: float) -> np.ndarray | None:
     return None
 
 
-def zoom_windows(runs: list[RunFiles], edges: list[np.ndarray] | None = None, max_windows: int = 4,
+def zoom_windows(runs: list[PlottedRun], edges: list[np.ndarray] | None = None, max_windows: int = 4,
                  span_m: float = 40.0, pad_m: float = 12.0, min_length_m: float = 40.0) -> list[Window]:
     """The windows around the places of ``runs`` (one road), at most ``max_windows`` (highest ranked kept),
     in order along the road. ``edges``: the road's two edge polylines (the windows follow the road's middle
@@ -293,7 +226,7 @@ def zoom_windows(runs: list[RunFiles], edges: list[np.ndarray] | None = None, ma
         if abs(math.remainder(heading, 2 * math.pi)) < math.radians(1.0):
             heading = 0.0
         window = Window((float(centre[0]), float(centre[1])), heading, length, (-1.0, 1.0), s_mid, tuple(cluster))
-        windows.append(_fit_across(window, dense + paths, [d for r in runs for _, d in r.obstacles]))
+        windows.append(_fit_across(window, dense + paths, [np.array(o.discs) for r in runs for o in r.obstacles]))
     return windows
 
 
@@ -310,7 +243,7 @@ def _fit_across(window: Window, lines: list[np.ndarray], obstacles: list[np.ndar
                   window.events)
 
 
-def snapshot_time(run: RunFiles, window: Window) -> float | None:
+def snapshot_time(run: PlottedRun, window: Window) -> float | None:
     """When to show ``run``'s vehicles in ``window``: its own highest-ranked place there, else when its ego
     reaches the window's middle (None: it never does)."""
     own = [e for e in window.events if e.run == run.name]

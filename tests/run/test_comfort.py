@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from agentic_mpc.scenario.comfort import add_motion_columns, comfort_summary, cruise_mask
+from agentic_mpc.run.comfort import add_motion_columns, comfort_summary, cruise_mask
 
 DT = 0.04
 

@@ -22,7 +22,7 @@ def two_obstacles(variant: str, **update):
     obstacles = (*scenario.plain_world.obstacles, PlainObstacle(id="second", x_m=110.0, y_m=-3.5, radius_m=2.0))
     world = scenario.plain_world.model_copy(update={"obstacles": obstacles})
     outputs = scenario.outputs.model_copy(update={"plot": False, "replay": False})
-    return scenario.model_copy(update={"plain_world": world, "outputs": outputs, "duration_s": 9.0, **update})
+    return scenario.model_copy(update={"world": world, "outputs": outputs, "duration_s": 9.0, **update})
 
 
 def test_every_obstacle_gets_its_side_clearance_and_pass_time(tmp_path):

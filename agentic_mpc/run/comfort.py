@@ -1,6 +1,7 @@
 """Ride comfort and solver health: what a passenger feels and how well the MPPI average is doing.
 
-Computed from ``trajectory.csv`` after a run (README, "Metrics"):
+Computed by the recorder from the run's trajectory as it writes ``trajectory.csv`` (the motion columns) and
+``summary.csv`` (README, "Metrics"):
 
 - acceleration and jerk are finite differences of the plant's speed (the ego is driven by the model, so
   this is what the passenger feels along the road); the steering rate is that of the normalised command;

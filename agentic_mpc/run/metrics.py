@@ -1,8 +1,9 @@
-"""The numbers a run is judged by (the columns of ``summary.csv``; meanings in the README).
+"""The numbers a run is judged by (the columns of ``summary.csv``, written by the recorder; meanings in the README).
 
 :class:`MetricsRecorder` sees every observation while the run goes (gaps, time to collision, emergency
 vehicles, obstacle clearance, collision episodes); :func:`summarise` turns that and the trajectory into one
-row, :func:`obstacle_rows` into one row per obstacle (``obstacle_passes.csv``).
+row, :func:`obstacle_rows` into one row per obstacle (``obstacle_passes.csv``, columns
+:data:`~agentic_mpc.run.files.OBSTACLE_PASS_COLUMNS`).
 
 Collisions are contact EPISODES of the ego with another road user (SUMO's reports and our own box overlap;
 one episode per vehicle until they have been apart for half a second), each with a cause and whether the ego
@@ -24,10 +25,6 @@ from agentic_mpc.world.observation import Observation
 
 if TYPE_CHECKING:
     import pandas as pd
-
-TIMING_COLUMNS = ("solve_ms", "step_ms", "controller_ms_median", "controller_ms_p99", "wall_s")
-"""Wall-clock columns: the only ones a seed cannot fix (every other column is reproducible)."""
-
 
 @dataclass
 class ObstacleTrack:
@@ -140,9 +137,6 @@ def obstacle_outcome(track: ObstacleTrack, recorder: MetricsRecorder) -> str:
     """"hit" (the ego entered its discs or touched it), else the side it passed on, "none" if it did not."""
     hit = track.min_clearance_m < 0 or any(track.id in pair for pair in recorder.ego_collision_pairs)
     return "hit" if hit else track.side
-
-
-OBSTACLE_COLUMNS = ("id", "lane_index", "road_s_m", "side", "min_clearance_m", "passed_at_s")
 
 
 def obstacle_rows(recorder: MetricsRecorder) -> list[dict[str, Any]]:
