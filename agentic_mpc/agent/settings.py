@@ -16,7 +16,7 @@ from typing import Annotated, Any, ClassVar, Literal, Union
 from pydantic import Field, TypeAdapter, field_validator
 
 from agentic_mpc.frozen_config import FrozenConfig
-from agentic_mpc.world.emergency import ALERT_DISTANCE_M
+from agentic_mpc.world import ALERT_DISTANCE_M
 
 ToolMode = Literal["native", "json_schema"]
 Side = Literal["left", "right"]

@@ -39,16 +39,23 @@ def scenario_file(text: str):  # -> Path
     return resolved.path
 
 
+def backend_name(text: str) -> str:
+    """An argparse type: a registered backend's name (agent/settings.py, imported only when parsing)."""
+    from agentic_mpc.agent.settings import BACKEND_SETTINGS
+
+    if text not in BACKEND_SETTINGS:
+        raise argparse.ArgumentTypeError(f"invalid choice: {text!r} (choose from {', '.join(BACKEND_SETTINGS)})")
+    return text
+
+
 def add_backend_flags(parser: argparse.ArgumentParser) -> None:
     """``--backend`` (the registered backends of agent/settings.py) and its settings as flags, for ``ask`` and
     ``eval-agent``; :func:`flag_settings` reads them back. Defaults are the settings' own (given in brackets)."""
     from pathlib import Path
 
-    from agentic_mpc.agent.settings import BACKEND_SETTINGS
-
-    parser.add_argument("--backend", choices=tuple(BACKEND_SETTINGS), default="rules",
+    parser.add_argument("--backend", type=backend_name, default="rules",
                         help="rules: offline rule-based stand-in (default); openai: an OpenAI-compatible endpoint; "
-                             "llamacpp: a GGUF model in this process")
+                             "llamacpp: a GGUF model in this process (or any registered backend)")
     parser.add_argument("--base-url", default=None, help="openai: the endpoint's /v1 URL (default Ollama's)")
     parser.add_argument("--model", default=None, help="openai: model name (granite4:micro)")
     parser.add_argument("--api-key-env", default=None,

@@ -158,7 +158,8 @@ def _short(text: str) -> str:
 
 
 def captions_of(rows: list[dict[str, Any]], own_calls: bool | None = None) -> list[dict[str, Any]]:
-    """Passenger and observation messages, the agent's replies and its tool calls, at their sim times.
+    """Passenger and observation messages, the agent's replies, its tool calls and the ego's stuck intervals
+    (``stuck`` events), at their sim times.
     ``own_calls``: whether an embedded agent made calls (then the MCP server's receipts of them are not shown
     twice); None: decided from ``rows``."""
     if own_calls is None:
@@ -172,6 +173,8 @@ def captions_of(rows: list[dict[str, Any]], own_calls: bool | None = None) -> li
         if event == "message" and role == "user":
             kind = "observation" if r.get("source") == "observation" else "passenger"
             captions.append({"t": rounded(t, 3), "kind": kind, "text": _short(r.get("content", ""))})
+        elif event == "stuck":
+            captions.append({"t": rounded(t, 3), "kind": "stuck", "text": _short(r.get("content", ""))})
         elif event == "message" and role == "assistant" and r.get("content", "").strip():
             captions.append({"t": rounded(t, 3), "kind": "agent", "text": _short(r["content"])})
         elif event == "tool_call" or (event == "tool_call_received" and not own_calls):

@@ -208,7 +208,8 @@
     box.replaceChildren(...shown.map((c) => {
       const div = document.createElement("div");
       div.className = "caption cap-" + c.kind;
-      div.textContent = ({passenger: "Passenger: ", observation: "Observation: ", agent: "Agent: ", tool: "Tool call: "})[c.kind] + c.text;
+      div.textContent = ({passenger: "Passenger: ", observation: "Observation: ", agent: "Agent: ", tool: "Tool call: ",
+        stuck: "Stuck: "})[c.kind] + c.text;
       return div;
     }));
     slider.value = t;

@@ -39,7 +39,8 @@ from agentic_mpc.run.recorder import RunRecorder, StepOutcome
 from agentic_mpc.run.timeline import MessageSchedule, TimedMessage
 from agentic_mpc.vehicle import throttle_for_steady_speed
 from agentic_mpc.world.base import World
-from agentic_mpc.world.emergency import ALERT_DISTANCE_M, EmergencyDetector
+from agentic_mpc.world import ALERT_DISTANCE_M
+from agentic_mpc.world.emergency import EmergencyDetector
 
 logger = logging.getLogger(__name__)
 
@@ -127,7 +128,8 @@ class RunLoop:
     def finished(self) -> bool:
         world, s = self.world, self.settings
         reached = s.stop_at_goal and world.observation.ego.road_s_m >= world.goal_s_m
-        return reached or world.time_s >= s.duration_s - 1e-9 or self.stop.is_set()
+        blocked = self.recorder.metrics.stuck.hopeless  # every lane blocked: the reason is in summary.csv
+        return reached or blocked or world.time_s >= s.duration_s - 1e-9 or self.stop.is_set()
 
     def step(self) -> StepOutcome:
         """One control step (see the module docstring). Raises the world's error if it fails."""

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from agentic_mpc.primitives import Circle
+from agentic_mpc.run.stuck import StuckTracker
 from agentic_mpc.world.collisions import CollisionTracker
 from agentic_mpc.world.observation import Observation
 
@@ -53,11 +54,15 @@ class MetricsRecorder:
     """Every (sorted) pair of ids that touched, the ego one of them, over the run."""
     collisions: CollisionTracker = field(default_factory=CollisionTracker)
     """The contact episodes with their causes."""
+    stuck: StuckTracker = field(default_factory=StuckTracker)
+    """When the ego stood still although asked to move (:mod:`agentic_mpc.run.stuck`)."""
     _previous_road_s_m: float | None = None
 
-    def observe(self, observation: Observation, lateral_of_lane: Any) -> None:
-        """``lateral_of_lane(index, x, y)``: the ego's signed offset from a road lane (+ left)."""
+    def observe(self, observation: Observation, lateral_of_lane: Any, v_ref_mps: float = math.nan) -> None:
+        """``lateral_of_lane(index, x, y)``: the ego's signed offset from a road lane (+ left); ``v_ref_mps``:
+        the speed the specification asks for."""
         ego = observation.ego
+        self.stuck.update(observation, v_ref_mps)
         for vehicle in observation.traffic:
             if vehicle.relative_lane != 0:
                 continue
@@ -117,6 +122,9 @@ def summarise(
         "reached_goal": bool(reached.any()),
         "obstacle_side": obstacle_side,
         "min_obstacle_clearance_m": finite_or_nan(min_clearance),
+        "blockages_passed": sum(1 for track in recorder.obstacles if math.isfinite(track.passed_at_s)),
+        "stuck_s": round(recorder.stuck.longest_s, 3),
+        "stuck_reason": recorder.stuck.longest_reason,
         "min_gap_m": finite_or_nan(recorder.min_gap_m),
         "min_ttc_s": finite_or_nan(recorder.min_ttc_s),
         "lane_rms_error_m": finite_or_nan(float(np.sqrt(np.mean(trajectory["tracked_lane_offset_m"] ** 2))))

@@ -22,6 +22,7 @@ from agentic_mpc.primitives import PathTracking, Specification
 from agentic_mpc.run import files
 from agentic_mpc.run.comfort import add_motion_columns, comfort_summary
 from agentic_mpc.run.metrics import MetricsRecorder, ObstacleTrack, obstacle_rows, summarise
+from agentic_mpc.run.stuck import StuckTracker
 from agentic_mpc.world.base import World
 from agentic_mpc.world.collisions import CollisionEpisode, ReportWithoutContact
 from agentic_mpc.world.observation import Observation
@@ -60,7 +61,7 @@ class RunRecorder:
                                       "source": "world", "result": json.dumps(start, default=str)})
         self.received_calls: list[dict[str, Any]] = []
         self.plan_rows: list[tuple[float, int, float, float]] = []
-        self.metrics = MetricsRecorder()
+        self.metrics = MetricsRecorder(stuck=StuckTracker(lane_count=len(world.lanes().lanes)))
         circles = world.obstacle_circles()
         for obstacle in world.observation.obstacles:
             own = tuple(c for c in circles if c.label == obstacle.id)
@@ -113,7 +114,7 @@ class RunRecorder:
         else:
             row["tracked_lane"], row["v_ref_mps"], row["tracked_lane_offset_m"] = "", float("nan"), float("nan")
         self.trajectory_rows.append(row)
-        self.metrics.observe(after, self.world.lateral_offset_m)
+        self.metrics.observe(after, self.world.lateral_offset_m, row["v_ref_mps"])
         for emergency in after.emergency_vehicles:
             loss = self.world.time_loss_s(emergency.vehicle.id)
             if loss is not None:
@@ -153,7 +154,8 @@ class RunRecorder:
         traffic.to_csv(out_dir / files.TRAFFIC, index=False)
         if self.plan_rows:
             pd.DataFrame(self.plan_rows, columns=list(files.PLAN_COLUMNS)).to_csv(out_dir / files.PLAN, index=False)
-        collisions = [collision_event(e) for e in self.metrics.collisions.episodes]
+        self.metrics.stuck.finish()
+        collisions = [collision_event(e) for e in self.metrics.collisions.episodes] + self.metrics.stuck.events()
         collisions += [report_without_contact_event(r) for r in self.metrics.collisions.reports_without_contact]
         events = events_table(sorted(self.setup_events + transcript + list(self.received_calls)
                                      + self.specification_events + collisions,

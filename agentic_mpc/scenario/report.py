@@ -24,7 +24,8 @@ PAIR_COLUMNS = ("scenario", "seed", "holding_variant", "yielding_variant", "hold
 def variant_table(summary: pd.DataFrame) -> pd.DataFrame:
     """One row per scenario and variant: runs, outcomes, and the means of the main metrics."""
     # older summaries lack these
-    for column in ("accel_rms_mps2", "cruise_accel_rms_mps2", "ess_median_fraction", "collisions_ego_at_fault"):
+    for column in ("accel_rms_mps2", "cruise_accel_rms_mps2", "ess_median_fraction", "collisions_ego_at_fault",
+                   "stuck_s", "blockages_passed"):
         if column not in summary:
             summary = summary.assign(**{column: float("nan")})
     grouped = summary.groupby(["scenario", "variant"], sort=False)
@@ -37,6 +38,8 @@ def variant_table(summary: pd.DataFrame) -> pd.DataFrame:
         passed_right=("obstacle_side", lambda s: int((s == "right").sum())),
         hit=("obstacle_side", lambda s: int((s == "hit").sum())),
         min_clearance_m=("min_obstacle_clearance_m", "min"),
+        blockages_passed=("blockages_passed", "mean"),
+        stuck_s_max=("stuck_s", "max"),
         ambulance_delay_s=("ambulance_delay_s", "mean"),
         mean_speed_mps=("mean_speed_mps", "mean"),
         lane_rms_error_m=("lane_rms_error_m", "mean"),

@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from agentic_mpc.world import ALERT_DISTANCE_M
 from agentic_mpc.world.observation import EmergencyVehicleObservation, Observation
 
 EventKind = Literal["emergency_vehicle_approaching", "emergency_vehicle_passed"]
@@ -72,10 +73,6 @@ class Sighting:
 
 def _label(vehicle_id: str, kind: str) -> str:
     return f"{kind} '{vehicle_id}'" if kind else f"'{vehicle_id}'"
-
-
-ALERT_DISTANCE_M = 80.0
-"""How far behind the ego an emergency vehicle starts to matter, unless a scenario says otherwise."""
 
 
 @dataclass

@@ -1,0 +1,85 @@
+"""Stuck is standing still while asked to move with nothing to queue behind: measured per interval, reported
+as the longest, with its reason, as events, and as the end of a run where every lane is blocked."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pytest
+
+from agentic_mpc.run.stuck import HOPELESS_S, REPORTED_S, StuckTracker
+
+DT = 0.04
+
+
+def observation(t, speed, *, traffic=(), obstacles=(), lane=1, road_s=100.0):
+    ego = SimpleNamespace(speed_mps=speed, lane_index=lane, road_s_m=road_s)
+    return SimpleNamespace(time_s=t, ego=ego, traffic=tuple(traffic), obstacles=tuple(obstacles))
+
+
+def car(gap, lane_offset=0, relation="ahead"):
+    return SimpleNamespace(id="car", relative_lane=lane_offset, relation=relation, gap_m=gap)
+
+
+def obstacle(identifier, gap, lane=1, road_s=105.0):
+    return SimpleNamespace(id=identifier, relation="ahead", lane_index=lane, gap_m=gap, road_s_m=road_s)
+
+
+def drive(tracker, seconds, v_ref=15.0, start=0.0, **scene):
+    steps = round(seconds / DT)
+    for k in range(steps):
+        tracker.update(observation(start + k * DT, **scene), v_ref)
+    return start + steps * DT
+
+
+def test_standing_with_the_road_ahead_free_is_stuck_and_reported():
+    tracker = StuckTracker(lane_count=3)
+    t = drive(tracker, 1.0, speed=10.0)
+    t = drive(tracker, 5.0, speed=0.0, start=t)
+    drive(tracker, 1.0, speed=3.0, start=t)
+    tracker.finish()
+    assert tracker.longest_s == pytest.approx(5.0, abs=DT)
+    assert tracker.longest_reason == "road ahead free"
+    (event,) = tracker.events()
+    assert event["event"] == "stuck" and event["sim_time_s"] == pytest.approx(1.0)
+    assert "stood still for 5.0 s" in event["content"]
+
+
+def test_queueing_behind_a_car_or_being_told_to_stop_is_not_stuck():
+    tracker = StuckTracker(lane_count=3)
+    t = drive(tracker, 6.0, speed=0.0, traffic=[car(3.0)])  # a queue: it will move
+    drive(tracker, 6.0, speed=0.0, v_ref=0.0, start=t)  # the specification asks it to stand
+    tracker.finish()
+    assert tracker.longest_s == 0.0 and tracker.events() == []
+
+
+def test_a_car_in_the_next_lane_or_far_ahead_is_no_queue():
+    tracker = StuckTracker(lane_count=3)
+    drive(tracker, 3.0, speed=0.0, traffic=[car(3.0, lane_offset=1), car(30.0)])
+    tracker.finish()
+    assert tracker.longest_s == pytest.approx(3.0, abs=DT) and tracker.longest_reason == "road ahead free"
+
+
+def test_standing_behind_a_stopped_car_is_stuck_and_short_waits_are_not_events():
+    tracker = StuckTracker(lane_count=3)
+    t = drive(tracker, REPORTED_S / 2, speed=0.0, obstacles=[obstacle("stopped", 0.5)])
+    t = drive(tracker, 1.0, speed=5.0, start=t)
+    drive(tracker, 3.0, speed=0.0, obstacles=[obstacle("stopped", 0.5)], start=t)
+    tracker.finish()
+    assert [round(i.duration_s, 2) for i in tracker.intervals] == [pytest.approx(REPORTED_S / 2, abs=DT),
+                                                                   pytest.approx(3.0, abs=DT)]
+    assert tracker.longest_reason == "behind obstacle stopped" and len(tracker.events()) == 1
+
+
+def test_every_lane_blocked_is_said_and_ends_the_run():
+    tracker = StuckTracker(lane_count=3)
+    wall = [obstacle("a", 1.0, lane=0), obstacle("b", 1.0, lane=1, road_s=110.0), obstacle("c", 1.0, lane=2)]
+    drive(tracker, HOPELESS_S - 1.0, speed=0.0, obstacles=wall)
+    assert not tracker.hopeless
+    drive(tracker, 1.5, speed=0.0, obstacles=wall, start=HOPELESS_S - 1.0)
+    assert tracker.hopeless
+    tracker.finish()
+    assert tracker.longest_reason == "every lane blocked (a, b, c)"
+    two_of_three = StuckTracker(lane_count=3)
+    drive(two_of_three, HOPELESS_S + 1.0, speed=0.0, obstacles=wall[:2])
+    assert not two_of_three.hopeless  # a lane is open: stuck, but not hopeless
