@@ -15,7 +15,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_serializer, model_validator
 from pydantic_core import PydanticCustomError
 
-from agentic_mpc.agent.settings import AgentSettings, RulesSettings, agent_settings
+from agentic_mpc.agent.settings import BACKEND_SETTINGS, AgentSettings, RulesSettings, agent_settings
 from agentic_mpc.controller.config import MPPIConfig
 from agentic_mpc.frozen_config import FrozenConfig
 from agentic_mpc.scenario.yaml_source import ScenarioFileError, YamlDocument, YamlPath, deep_merge, load_yaml
@@ -133,8 +133,12 @@ class Scenario(FrozenConfig):
         if isinstance(data.get("agent", {}), dict):
             try:
                 rest["agent"] = agent_settings(data.get("agent", {}))
-            except ValidationError as error:  # the location's second part is the backend's name, not a key
-                errors += [{**item, "loc": ("agent", *item["loc"][1:])} for item in error.errors()]
+            except ValidationError as error:  # a location's first part is the backend's name, not a key
+                for item in error.errors():
+                    tagged = bool(item["loc"]) and item["loc"][0] in BACKEND_SETTINGS
+                    if item["type"] == "extra_forbidden" and tagged:
+                        item = {**item, "msg": f"not a setting of the {item['loc'][0]} backend"}
+                    errors.append({**item, "loc": ("agent", *item["loc"][1 if tagged else 0:])})
                 rest.pop("agent")
         try:
             scenario = handler(rest)
