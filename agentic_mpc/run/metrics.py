@@ -37,7 +37,8 @@ class ObstacleTrack:
     lane_index: int
     min_clearance_m: float = math.inf
     side: str = "none"
-    """The ego's side of the obstacle's lane as it passed it ("left"/"right"), "none" until then."""
+    """The ego's side of the obstacle's lane as it passed it ("left"/"right"), "none" until then, "behind at
+    start" when the ego entered the road past it (SUMO inserts the ego in the nearest free gap)."""
     passed_at_s: float = math.nan
     """Simulation time at which the ego's centre passed the obstacle's along the road."""
 
@@ -123,6 +124,7 @@ def summarise(
         "obstacle_side": obstacle_side,
         "min_obstacle_clearance_m": finite_or_nan(min_clearance),
         "blockages_passed": sum(1 for track in recorder.obstacles if math.isfinite(track.passed_at_s)),
+        "blockages_ahead_at_start": sum(1 for track in recorder.obstacles if track.side != "behind at start"),
         "stuck_s": round(recorder.stuck.longest_s, 3),
         "stuck_reason": recorder.stuck.longest_reason,
         "min_gap_m": finite_or_nan(recorder.min_gap_m),

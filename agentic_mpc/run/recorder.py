@@ -65,7 +65,10 @@ class RunRecorder:
         circles = world.obstacle_circles()
         for obstacle in world.observation.obstacles:
             own = tuple(c for c in circles if c.label == obstacle.id)
-            self.metrics.obstacles.append(ObstacleTrack(obstacle.id, own, obstacle.road_s_m, obstacle.lane_index))
+            track = ObstacleTrack(obstacle.id, own, obstacle.road_s_m, obstacle.lane_index)
+            if obstacle.road_s_m < world.observation.ego.road_s_m:
+                track.side = "behind at start"  # never in the ego's way: not a blockage it had to pass
+            self.metrics.obstacles.append(track)
 
     def specification_changed(self, specification: Specification, version: int) -> None:
         self.specification_events.append(
