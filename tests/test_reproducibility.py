@@ -114,3 +114,26 @@ def test_a_run_on_another_architecture_says_so_once(monkeypatch, caplog):
         reproducibility.warn_once()
     assert [r.getMessage() for r in caplog.records].count(caplog.records[0].getMessage()) == 1
     assert "riscv64 machine" in caplog.records[0].getMessage()
+
+
+ORDER_CHILD = """
+from agentic_mpc.scenario.runner import build_world
+from agentic_mpc.scenario.schema import load_scenario
+from agentic_mpc.shipped import scenario_path
+world = build_world(load_scenario(scenario_path("incident_in_traffic")).variant("left"))
+print(",".join(o.id for o in world.observation.obstacles), ",".join(c.label for c in world.obstacle_circles()))
+world.close()
+"""
+
+
+def test_obstacles_keep_the_scenarios_order_whatever_the_string_hashing():
+    """A set of obstacle ids once ordered them by the process's string hashing: J2's obstacles and the
+    obstacle that ``obstacle_side`` reports changed from process to process (found in the incident's goldens)."""
+    seen = set()
+    for hash_seed in ("1", "2", "3"):
+        env = {**os.environ, "PYTHONHASHSEED": hash_seed, "PYTHONPATH": str(REPO)}
+        done = subprocess.run([sys.executable, "-c", ORDER_CHILD], env=env, cwd=REPO, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-2000:]
+        seen.add(done.stdout.strip().splitlines()[-1])
+    ids, labels = seen.pop().split(" ")
+    assert not seen and ids == "stopped_straight,stopped_curve" and labels.startswith("stopped_straight")

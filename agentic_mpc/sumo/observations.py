@@ -38,7 +38,10 @@ class ObservationBuilder:
         self.road = road
         self.ego_id = ego_id
         self.info = info
-        self.obstacle_ids = frozenset(obstacle_ids)
+        self.obstacle_order = tuple(dict.fromkeys(obstacle_ids))
+        """The scenario's order: observations list obstacles in it (a set's order changes with the process's
+        string hashing, and with it the order of J2's obstacles and which one ``obstacle_side`` reports)."""
+        self.obstacle_ids = frozenset(self.obstacle_order)
         self._obstacle_poses = obstacle_poses
         self._position_in_order = {lane: i for i, lane in enumerate(road.left_to_right)}
         self._lane_ids = {span.lane_id for span in road.spans.values()}
@@ -170,7 +173,7 @@ class ObservationBuilder:
                 near.append(vehicle)
         # Obstacles beyond sensing range are still known (they do not move): the agent may plan for them.
         if self._obstacle_poses is not None and self.obstacle_ids:
-            for obstacle_id in self.obstacle_ids - obstacles.keys():
+            for obstacle_id in (i for i in self.obstacle_order if i not in obstacles):
                 state = self._obstacle_poses(obstacle_id)
                 if state is None:
                     continue
@@ -232,6 +235,7 @@ class ObservationBuilder:
         # Our own footprint check against every vehicle and obstacle: SUMO misses the ego's part in the next
         # lane (it reports only once the ego's centre is across the line).
         reported = {frozenset((c.collider, c.victim)) for c in collision_obs}
+        obstacles = {i: obstacles[i] for i in self.obstacle_order if i in obstacles}
         for other in (*near, *obstacles.values()):  # the rest of the traffic is out of reach (above)
             if reported and frozenset((self.ego_id, other.id)) in reported:
                 continue
