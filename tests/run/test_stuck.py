@@ -83,3 +83,37 @@ def test_every_lane_blocked_is_said_and_ends_the_run():
     two_of_three = StuckTracker(lane_count=3)
     drive(two_of_three, HOPELESS_S + 1.0, speed=0.0, obstacles=wall[:2])
     assert not two_of_three.hopeless  # a lane is open: stuck, but not hopeless
+
+
+def test_a_road_blocked_in_every_lane_ends_the_sumo_run_with_the_reason(tmp_path):
+    """Closed loop in SUMO: three stopped cars abreast; the run ends 10 s after the ego stood, not at 120 s."""
+    import csv
+    from pathlib import Path
+
+    from agentic_mpc.scenario.runner import run_scenario
+    from agentic_mpc.scenario.schema import load_scenario
+
+    nets = Path(__file__).resolve().parents[2] / "sumo_nets"
+    file = tmp_path / "wall.yaml"
+    file.write_text(f"""name: wall
+simulation:
+  net_file: {nets / 'straight.net.xml'}
+  route_files: [{nets / 'straight.rou.xml'}]
+  road: straight
+  ego: {{lane: center, pos_m: 30.0, speed_mps: 10.0}}
+  obstacles:
+    - {{id: block_left, lane: left, pos_m: 120.0}}
+    - {{id: block_centre, lane: center, pos_m: 120.0}}
+    - {{id: block_right, lane: right, pos_m: 120.0}}
+specification:
+  path_tracking: {{lane: center, v_ref_mps: 10.0}}
+  obstacle_avoidance: {{}}
+duration_s: 120.0
+outputs: {{plot: false, replay: false}}
+""")
+    summary = run_scenario(load_scenario(file).base, tmp_path / "run")
+    assert summary["status"] == "ok" and summary["sim_time_s"] < 40.0 and summary["collisions"] == 0
+    assert summary["stuck_reason"] == "every lane blocked (block_centre, block_left, block_right)"
+    assert summary["stuck_s"] == pytest.approx(HOPELESS_S, abs=0.1) and summary["blockages_passed"] == 0
+    with (tmp_path / "run" / "events.csv").open() as events:
+        assert [row["event"] for row in csv.DictReader(events)].count("stuck") == 1
