@@ -64,6 +64,25 @@ class VehicleParams:
         return -self.w_a / self.w_v
 
 
+    def pull_out_turn(self, steer: float = 1.0) -> tuple[float, float, float]:
+        """(radius of the path, cos gamma, sin gamma) when steering at ``steer`` (a share of full lock): the
+        motion runs at the slip angle gamma to the heading at once, then turns on a circle of radius
+        l_r / sin(gamma)."""
+        gamma = math.atan(self.slip_gain * math.tan(self.r_delta * min(max(steer, 0.0), STEER_LIMIT)))
+        return (self.l_r_m / math.sin(gamma) if gamma > 0.0 else math.inf), math.cos(gamma), math.sin(gamma)
+
+    def pull_out_distance_m(self, lateral_m: float, steer: float = 1.0) -> float:
+        """How far ahead the reference point has moved when it is ``lateral_m`` to the side, starting straight
+        and steering at ``steer`` throughout (:meth:`pull_out_turn`). Inf if it never gets there."""
+        radius, cos_gamma, sin_gamma = self.pull_out_turn(steer)
+        if not math.isfinite(radius):
+            return math.inf
+        cos_end = cos_gamma - lateral_m / radius
+        if cos_end < 0.0:  # the circle turns back before it gets that far aside
+            return math.inf
+        return radius * (math.sqrt(1.0 - cos_end * cos_end) - sin_gamma)
+
+
 PAPER_PARAMS = VehicleParams()
 
 

@@ -44,6 +44,13 @@ class MPPIConfig(FrozenConfig):
         description="'pinned': the coefficient noise is conditioned so that u(0) has none (the applied input "
         "continues the previous plan); 'paper': u(0) gets the noise of beta_0 + sum beta_l",
     )
+    free_start_below_mps: float | None = Field(
+        0.1,
+        ge=0,
+        description="with pinned noise: below this speed, when the specification asks for motion, u(0) gets the "
+        "paper's noise after all (a standing car's warm-started brake would otherwise hold every sample still: "
+        "braking does nothing at 0 m/s, so no cost ever moves it; docs/traffic.md); None: always pinned",
+    )
     pinned_level_share: float = Field(
         1.0,
         ge=0,

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from agentic_mpc.primitives.base import FusedArrays
+from agentic_mpc.primitives.mandatory import QUEUE_ROOM_KNEE_M as _ROOM_KNEE
 from agentic_mpc.vehicle import VehicleParams
 
 _JIT = {"fastmath": {"contract"}, "error_model": "numpy", "cache": True, "nogil": True}  # why: the docstring
@@ -89,6 +90,7 @@ def rollout_costs(
     leader_tan,
     leader_start,
     time_gap,
+    queue_rooms,
     work,
     costs,
 ):
@@ -219,6 +221,19 @@ def rollout_costs(
             for i in range(n_samples):
                 shortfall = max(0.0, min(gap_s * v[i] + gap_m, cap) - (tx * (lx - x[i]) + ty * (ly - y[i])))
                 costs[i] += gap_w * (knee * (2.0 * shortfall - knee) if shortfall > knee else shortfall * shortfall)
+    for o in range(queue_rooms.shape[0]):  # J0's room to pull out behind a blockage, on the plan's last state
+        cx, cy, tx, ty = queue_rooms[o, 0], queue_rooms[o, 1], queue_rooms[o, 2], queue_rooms[o, 3]
+        radius, turn_radius, cos_g, sin_g = queue_rooms[o, 4], queue_rooms[o, 5], queue_rooms[o, 6], queue_rooms[o, 7]
+        half_inv_decel, weight = queue_rooms[o, 8], queue_rooms[o, 9]
+        for i in range(n_samples):
+            behind = tx * (cx - x[i]) + ty * (cy - y[i])
+            beside = tx * (cy - y[i]) - ty * (cx - x[i])
+            if behind > 0.0 and abs(beside) < radius:
+                cos_end = cos_g - (radius - abs(beside)) / turn_radius
+                wanted = turn_radius * (np.sqrt(1.0 - cos_end * cos_end) - sin_g) + half_inv_decel * v[i] * v[i]
+                shortfall = max(0.0, wanted - (behind - radius))
+                huber = _ROOM_KNEE * (2.0 * shortfall - _ROOM_KNEE) if shortfall > _ROOM_KNEE else shortfall * shortfall
+                costs[i] += weight * huber
 
 
 def fused_costs(

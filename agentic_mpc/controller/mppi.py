@@ -84,9 +84,8 @@ class FourierMPPI:
             else None
         )
         self._fast = c.backend == "fast"
-        self._compiled_noise_map = np.ascontiguousarray(
-            self._noise_map if self._noise_map is not None else np.stack([np.diag(std) for std in self.std])
-        )
+        self._free_map = np.ascontiguousarray(np.stack([np.diag(std) for std in self.std]))
+        self._compiled_noise_map = np.ascontiguousarray(self._noise_map if self._noise_map is not None else self._free_map)
         self.rng = np.random.default_rng(seed)
         self._params_packed = kernels.pack_params(params)
         # Buffers allocated once: re-allocating (2L+1, S) and (9, S) arrays every step costs measurably.
@@ -109,15 +108,17 @@ class FourierMPPI:
         self.previous_input = (0.0, 0.0)
         self.temperature = self.config.temperature
 
-    def sample(self) -> np.ndarray:
-        """Draw coefficient samples around the mean into the buffer, shape (2, 2L+1, S)."""
+    def sample(self, free_start: bool = False) -> np.ndarray:
+        """Draw coefficient samples around the mean into the buffer, shape (2, 2L+1, S); ``free_start``: u(0)
+        gets noise even when the configuration pins it."""
         c = self.config
         z = self._z
         self.rng.standard_normal(out=self._noise)
         if self._fast:  # the same arithmetic, compiled (tests/controller/test_mppi.py compares the two)
-            kernels.assemble_samples(self._compiled_noise_map, self._noise, self.mean, c.antithetic, c.include_mean, z)
+            noise_map = self._free_map if free_start else self._compiled_noise_map
+            kernels.assemble_samples(noise_map, self._noise, self.mean, c.antithetic, c.include_mean, z)
             return z
-        if self._noise_map is not None:  # noise_map @ noise in a fixed order: no BLAS (docs/reproducibility.md)
+        if self._noise_map is not None and not free_start:  # a fixed-order product: no BLAS (docs/reproducibility.md)
             self._scaled[...] = 0.0
             for j in range(c.coefficients):
                 self._scaled += self._noise_map[:, :, j, None] * self._noise[:, None, j, :]
@@ -164,7 +165,7 @@ class FourierMPPI:
         if state.shape != (4,) or not all(map(math.isfinite, state.tolist())):  # np.all costs ~10 us here
             raise ValueError(f"state must be 4 finite numbers [x_m, y_m, phi_rad, v_mps], got {state!r}")
         prepared = specification.prepare(self.context(state, surroundings))
-        z = self.sample()
+        z = self.sample(self._free_start(state, specification))
         costs, fast = self.costs(prepared, state, z)
         weights, optimum = self.average(costs, z)
         if weights.found:
@@ -198,6 +199,14 @@ class FourierMPPI:
             solve_ms=(time.perf_counter() - started) * 1e3,
             used_fast_path=fast,
         )
+
+    def _free_start(self, state: np.ndarray, specification: Specification) -> bool:
+        """Whether this step samples u(0) too: standing, pinned, and asked to move. Pinning keeps the applied
+        input continuous while driving; at 0 m/s it would keep the warm-started brake for ever, since braking
+        a standing car changes no rollout and so no cost (docs/traffic.md, "An incident in traffic")."""
+        below = self.config.free_start_below_mps
+        return (self._noise_map is not None and below is not None and float(state[3]) < below
+                and specification.asks_for_motion)
 
     def average(self, costs: np.ndarray, z: np.ndarray) -> tuple[Weighting, np.ndarray]:
         """This step's weights and the weighted mean of the samples ``z`` (2, 2L+1, S); the mean is

@@ -1,6 +1,7 @@
 """The primitive objectives (the pool) and the specification that attaches them."""
 
 from agentic_mpc.primitives.base import (
+    Blockage,
     Leader,
     MovingDisc,
     Primitive,
@@ -18,6 +19,7 @@ from agentic_mpc.primitives.steering_preference import PreferredSteeringDirectio
 
 __all__ = [
     "POOL",
+    "Blockage",
     "Circle",
     "Leader",
     "Mandatory",

@@ -89,6 +89,20 @@ class Leader:
 
 
 @dataclass(frozen=True, slots=True)
+class Blockage:
+    """The tail of something standing in a lane that the ego may have to pull out around: a stopped obstacle,
+    or the last car of the queue standing behind one. ``x_m, y_m``: the centre of the rearmost disc the ego's
+    centre must avoid (radius ``radius_m``); ``tangent``: the lane's direction there (unit). For J0's queue
+    room (:mod:`agentic_mpc.primitives.mandatory`)."""
+
+    x_m: float
+    y_m: float
+    tangent_x: float
+    tangent_y: float
+    radius_m: float
+
+
+@dataclass(frozen=True, slots=True)
 class Surroundings:
     """What the world tells the controller at one step, independent of any simulator."""
 
@@ -97,6 +111,8 @@ class Surroundings:
     road_right_edge: TrackingReference | None = None
     leaders: tuple[Leader, ...] = ()
     """Vehicles ahead in the ego's path (usually one; a car cutting in adds another)."""
+    blockages: tuple[Blockage, ...] = ()
+    """Standing things the ego keeps room to pull out behind (not also leaders)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -140,6 +156,8 @@ class FusedArrays(NamedTuple):
     leader_tan: FloatArray  # (n_leaders, H, 2)
     leader_start: FloatArray  # (n_leaders,): the gap now (at least the standstill gap), m
     time_gap: FloatArray  # (5,): time gap s, standstill gap m, weight per stage, Huber knee m, recovery m per step
+    queue_rooms: FloatArray  # (n, 10): rear disc x, y, lane tangent x, y, radius, turn radius, cos and sin of its
+    # slip angle, 1/(2 decel), weight on the last stage
 
 
 @dataclass(slots=True)
@@ -156,6 +174,7 @@ class FusedTerms:
     edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
     leaders: list[tuple[FloatArray, FloatArray, float]] = field(default_factory=list)
     time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
+    queue_rooms: list[tuple[float, ...]] = field(default_factory=list)
 
     def build(self) -> FusedArrays:
         # Called every control step: the empty and single-item cases (most of them) allocate nothing new, and
@@ -192,6 +211,7 @@ class FusedTerms:
             leader_tan=stack([t for _, t, _ in self.leaders]),
             leader_start=np.array([start for _, _, start in self.leaders], dtype=np.float64),
             time_gap=_table((self.time_gap,), len(self.time_gap))[0],
+            queue_rooms=table(self.queue_rooms, 10),
         )
 
 

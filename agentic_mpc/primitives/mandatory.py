@@ -11,6 +11,16 @@
   gradually); the shortfall is penalised squared up to ``time_gap_quadratic_m``, linearly beyond (Huber). Along the
   path, so leaving the lane does not reduce it: the way to satisfy it after a cut-in is to brake
   (docs/cost-design.md, "Time gap");
+- queue room behind a blockage (``Surroundings.blockages``: a stopped obstacle, or the tail of the queue
+  standing behind one), a terminal cost: a plan that ends in line with it (behind its rearmost disc, less
+  than that disc's radius aside) pays for ending closer than the distance the model needs to pull out the
+  rest of the way round it, worked out from its geometry (``VehicleParams.pull_out_distance_m`` at
+  ``queue_room_steer`` of full lock: about 10 m from straight behind, less from partly aside, so that pulling
+  out costs nothing on the way), plus the distance to stop from its final speed at ``queue_room_decel_mps2``. So the
+  ego either pulls out or comes in at a speed it can stop from with room; a plan that ends beside or past
+  the blockage pays nothing (docs/traffic.md: without it the ego stood 0.5 m behind a stopped car, from
+  where no path of the model gets round, for 90 s; charged at every stage, the room made braking in lane
+  cheaper than pulling out);
 - smoothness of the planned inputs: a plan whose throttle/brake jumps from stage to stage costs more, so the
   weighted average of smooth plans is smooth (docs/cost-design.md).
 
@@ -41,6 +51,8 @@ docs/cost-design.md "Time gap")."""
 TIME_GAP_RECOVERY_MPS = 3.0
 """Default ``time_gap_recovery_mps`` (docs/cost-design.md "Time gap": a faster car merging 1 m ahead braked the
 ego to half its speed without it)."""
+QUEUE_ROOM_KNEE_M = 2.0
+"""The queue room's shortfall costs its square up to this many metres and grows linearly beyond (Huber)."""
 TIME_GAP_QUADRATIC_M = 2.0
 """Default ``time_gap_quadratic_m``: squared beyond 2 m of shortfall, a cut-in made the cost spread so wide that
 the averaged steering wandered out of the lane (same section)."""
@@ -100,6 +112,17 @@ class Mandatory(Primitive):
         "cutting in far inside the wanted gap makes the ego brake firmly, not slam the brakes",
     )
 
+    queue_room_weight: float = Field(
+        20.0, ge=0, description="on the queue room's shortfall in m at the plan's end (squared up to 2 m, then "
+        "linear; a horizon's worth, as a stage weight x H); 0: off"
+    )
+    queue_room_steer: float = Field(
+        0.5, gt=0, le=1.0, description="share of full steering lock the room to pull out is worked out for"
+    )
+    queue_room_decel_mps2: float = Field(
+        4.0, gt=0, description="the wanted room grows by the distance to stop at this deceleration, v^2 / (2 b)"
+    )
+
     def prepare(self, context: StepContext) -> PreparedMandatory:
         s = context.surroundings
         edges: list[tuple[TrackingReference, float]] = []
@@ -111,8 +134,14 @@ class Mandatory(Primitive):
         # The gap now (from the first stage's contact point), where the wanted gap may start from.
         x_m, y_m = context.state[0], context.state[1]
         starts = tuple(max(self.standstill_gap_m, _gap_along_path_m(leader, x_m, y_m)) for leader in leaders)
+        turn = context.params.pull_out_turn(self.queue_room_steer)
+        rooms = tuple(
+            (b.x_m, b.y_m, b.tangent_x, b.tangent_y, b.radius_m, *turn, 0.5 / self.queue_room_decel_mps2,
+             self.queue_room_weight)
+            for b in (s.blockages if self.queue_room_weight > 0.0 else ())
+        )
         return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
-                                 starts, context.dt_s)
+                                 starts, context.dt_s, rooms)
 
 
 def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
@@ -133,6 +162,9 @@ class PreparedMandatory:
     leaders: tuple[Leader, ...] = ()
     gap_starts_m: tuple[float, ...] = ()
     dt_s: float = 0.0
+    queue_rooms: tuple[tuple[float, ...], ...] = ()
+    """Per blockage: rear disc x, y, lane tangent x, y, radius, the pull-out turn (radius, cos and sin of the
+    slip angle), 1 / (2 b), weight (on the last stage: the whole horizon's worth)."""
 
     def cost(self, r: Rollouts) -> FloatArray:
         p, h = self.spec, self.horizon
@@ -166,6 +198,17 @@ class PreparedMandatory:
             q = p.time_gap_quadratic_m
             huber = np.where(shortfall > q, q * (2.0 * shortfall - q), shortfall**2)
             total += p.time_gap_weight / h * np.sum(huber, axis=0)
+        for cx, cy, tx, ty, radius, turn_radius, cos_g, sin_g, half_inv_decel, weight in self.queue_rooms:
+            x_end, y_end, v_end = r.x_m[-1], r.y_m[-1], r.v_mps[-1]  # on the last state only
+            behind = tx * (cx - x_end) + ty * (cy - y_end)  # along the lane, to the rear disc's centre
+            beside = tx * (cy - y_end) - ty * (cx - x_end)
+            # The run needed to get the rest of the way aside (VehicleParams.pull_out_distance_m), + stopping.
+            cos_end = cos_g - (radius - np.minimum(np.abs(beside), radius)) / turn_radius  # out of line: masked
+            wanted = turn_radius * (np.sqrt(1.0 - cos_end * cos_end) - sin_g) + half_inv_decel * v_end * v_end
+            shortfall = np.where((behind > 0.0) & (np.abs(beside) < radius),
+                                 np.maximum(0.0, wanted - (behind - radius)), 0.0)
+            q = QUEUE_ROOM_KNEE_M
+            total += weight * np.where(shortfall > q, q * (2.0 * shortfall - q), shortfall**2)
         return total
 
     def add_fused_terms(self, terms: FusedTerms) -> bool:
@@ -189,4 +232,5 @@ class PreparedMandatory:
                           p.time_gap_recovery_mps * self.dt_s)
         for leader, start in zip(self.leaders, self.gap_starts_m, strict=True):
             terms.leaders.append((leader.contact_points, leader.tangents, start))
+        terms.queue_rooms.extend(self.queue_rooms)
         return True

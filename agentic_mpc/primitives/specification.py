@@ -93,6 +93,11 @@ class Specification:
     def describe(self) -> list[dict[str, Any]]:
         return [p.describe() for p in self.primitives]
 
+    @property
+    def asks_for_motion(self) -> bool:
+        """Whether some attached primitive wants the car to move (path tracking with v_ref > 0)."""
+        return any(isinstance(p, PathTracking) and p.v_ref_mps > 0.0 for p in self.primitives)
+
     def summary(self) -> str:
         """A compact one-line form for logs and CSV columns."""
         return "; ".join(p.summary() for p in self.primitives[1:]) or "(mandatory only)"

@@ -3,8 +3,8 @@ it that it is merely queueing behind.
 
 A step counts as stuck when the ego's speed is below :data:`STANDING_MPS`, the tracked reference speed is
 above it, and either nothing stands directly ahead in its lane within :data:`QUEUE_GAP_M` (the road ahead is
-free: the controller keeps it still), or what stands there is a static obstacle (a stopped car the ego must
-go around, not a queue that will move). Standing behind a vehicle of the traffic is queueing, not stuck.
+free: the controller keeps it still), or what stands there is a static obstacle within :data:`OBSTACLE_GAP_M`
+(a stopped car the ego must go around, not a queue that will move). Standing behind a vehicle of the traffic is queueing, not stuck.
 :class:`StuckTracker` keeps the stuck intervals; ``summary.csv`` has the longest (``stuck_s``) and the count
 of static obstacles the ego got past (``blockages_passed``), ``events.csv`` one ``stuck`` row per interval
 of at least :data:`REPORTED_S`.
@@ -23,6 +23,9 @@ STANDING_MPS = 0.1
 QUEUE_GAP_M = 8.0
 """A road user closer than this ahead in the ego's lane is what the ego waits behind (a standstill gap plus
 slack: J0 stops 2 m behind a leader, the controller's queue distance a few metres more)."""
+OBSTACLE_GAP_M = 25.0
+"""A static obstacle closer than this ahead in the ego's lane is what a standing ego is stuck behind (J0 keeps
+about 10 m of room to pull out behind one, plus slack)."""
 REPORTED_S = 2.0
 """A stuck interval at least this long becomes a ``stuck`` event."""
 HOPELESS_S = 10.0
@@ -111,7 +114,7 @@ def _why_still(observation: Observation, lane_count: int | None) -> str | None:
     ahead = [(v.gap_m, "vehicle", v.id) for v in observation.traffic
              if v.relative_lane == 0 and v.relation == "ahead" and v.gap_m < QUEUE_GAP_M]
     ahead += [(o.gap_m, "obstacle", o.id) for o in observation.obstacles
-              if o.relation == "ahead" and o.lane_index == observation.ego.lane_index and o.gap_m < QUEUE_GAP_M]
+              if o.relation == "ahead" and o.lane_index == observation.ego.lane_index and o.gap_m < OBSTACLE_GAP_M]
     if not ahead:
         return "road ahead free"
     _, kind, identifier = min(ahead)

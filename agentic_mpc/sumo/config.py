@@ -38,6 +38,13 @@ class SurroundingsConfig(FrozenConfig):
         "default: J0's time-gap term keeps the distance by braking; this cover made the ego swerve after cut-ins)"
     )
     leader_standstill_gap_m: float = Field(2.0, ge=0, description="... plus this gap (the ego keeps its distance)")
+    passing_lanes_within_m: float | None = Field(
+        80.0,
+        ge=0,
+        description="a static obstacle this close ahead in the ego's lane opens the lanes beside it: they join the "
+        "corridor and their traffic gets the lane-entry cover, so the ego may go round it there and merges as into "
+        "any lane it enters (None: only the lane J1 tracks)",
+    )
     edges: Literal["road", "corridor", "none"] = Field(
         "road",
         description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"

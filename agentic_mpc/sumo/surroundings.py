@@ -47,12 +47,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agentic_mpc.primitives import Circle, Leader, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.primitives import Blockage, Circle, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.world.observation import Observation, ObstacleObservation, VehicleObservation
 
+QUEUE_STANDING_MPS = 0.5
+"""A vehicle slower than this behind a blockage joins its queue."""
+QUEUE_LINK_M = 12.0
+"""... if its front bumper is at most this far behind the rear of the queue so far (SUMO queues at 2.5 m)."""
+QUEUE_LEADER_WITHIN_M = 4.0
+"""A queue member this close ahead stays a leader of J0's time gap: from there the ego cannot pull out, and
+without the gap term it crept into the car while trying (measured: ego_into_stopped at 0.5 m/s)."""
 CUT_IN_LOOKAHEAD_S = 1.0
 """A neighbour whose box is predicted to reach into the ego's path lane within this time counts as a leader."""
 MAX_LEADERS = 3
@@ -110,6 +117,19 @@ def obstacle_circles(
     )
 
 
+@dataclass(frozen=True, slots=True)
+class Queue:
+    """A static obstacle and the vehicles standing nose to tail behind it in its lane (``members``, nearest
+    the obstacle first): they block the lane together. The members are not leaders of J0's time gap (that
+    would hold the ego behind them for ever, along its path); J0 keeps room to pull out behind ``tail``."""
+
+    obstacle_id: str
+    lane_index: int
+    members: tuple[str, ...]
+    tail: Blockage
+    tail_gap_m: float
+
+
 class SurroundingsBuilder:
     """Builds :class:`Surroundings` for the controller's horizon from an observation."""
 
@@ -141,6 +161,8 @@ class SurroundingsBuilder:
         self._lane_bounds = tuple(bounds)
         self._covers: dict[tuple[float, float, float], DiscCover] = {}
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
+        self._queues_of: Observation | None = None
+        self._queues: tuple[Queue, ...] = ()
 
     def _cover(self, vehicle: VehicleObservation) -> DiscCover:
         c = self.config
@@ -195,12 +217,63 @@ class SurroundingsBuilder:
         return max(0.0, min(wanted, room))
 
     def enterable_lanes(self, observation: Observation, target_lane: int | None) -> frozenset[int]:
-        """Lanes other than its own the ego may drive into: with ``edges="corridor"`` only the lane J1 tracks,
-        otherwise all. Vehicles there get the lane-entry cover (see the module docstring)."""
+        """Lanes other than its own the ego may drive into: with ``edges="corridor"`` the lane J1 tracks and
+        the :meth:`passing_lanes`, otherwise all. Vehicles there get the lane-entry cover (module docstring)."""
         own = observation.ego.lane_index if observation.ego.lane_role else None
         if self.config.edges == "corridor":
-            return frozenset() if target_lane is None or target_lane == own else frozenset((target_lane,))
+            tracked = frozenset() if target_lane is None else frozenset((target_lane,))
+            return (tracked | self.passing_lanes(observation, target_lane)) - {own}
         return frozenset(i for i in range(self.road.lane_count) if i != own)
+
+    def passing_lanes(self, observation: Observation, target_lane: int | None) -> frozenset[int]:
+        """The lanes beside the ego's when a blockage (:meth:`queues`) stands ahead in the lane it drives or
+        tracks, its tail within ``passing_lanes_within_m``: where the ego goes round (docs/traffic.md)."""
+        within = self.config.passing_lanes_within_m
+        ego = observation.ego
+        if within is None or not ego.lane_role:
+            return frozenset()
+        lanes = {ego.lane_index} | ({target_lane} if target_lane is not None else set())
+        if not any(q.lane_index in lanes and q.tail_gap_m <= within for q in self.queues(observation)):
+            return frozenset()
+        own = ego.lane_index
+        return frozenset(i for i in (own - 1, own + 1) if 0 <= i < self.road.lane_count)
+
+    def queues(self, observation: Observation) -> tuple[Queue, ...]:
+        """Each static obstacle ahead with the vehicles standing behind it in its lane, nose to tail."""
+        if self._queues_of is observation:  # asked several times per step
+            return self._queues
+        ego = observation.ego
+        queues = []
+        for obstacle in observation.obstacles:
+            if obstacle.relation != "ahead" or obstacle.offset_m > self.config.range_ahead_m:
+                continue
+            standing = sorted(
+                (v for v in observation.traffic
+                 if v.lane_index == obstacle.lane_index and v.lane_s_m is not None and v.relation == "ahead"
+                 and v.speed_mps < QUEUE_STANDING_MPS and v.road_s_m < obstacle.road_s_m),
+                key=lambda v: -v.road_s_m,
+            )
+            rear_s = obstacle.road_s_m - 0.5 * obstacle.length_m
+            members: list[VehicleObservation] = []
+            for vehicle in standing:
+                if rear_s - (vehicle.road_s_m + 0.5 * vehicle.length_m) > QUEUE_LINK_M:
+                    break
+                members.append(vehicle)
+                rear_s = vehicle.road_s_m - 0.5 * vehicle.length_m
+            if members:
+                tail = members[-1]
+                cover, gap = self._cover(tail), tail.gap_m
+                x, y, heading = tail.x_m, tail.y_m, tail.heading_rad
+            else:
+                cover = disc_cover(obstacle.length_m, obstacle.width_m, self.ego_length_m, self.ego_width_m,
+                                   self.config.clearance_margin_m)
+                gap, x, y, heading = obstacle.gap_m, obstacle.x_m, obstacle.y_m, obstacle.heading_rad
+            tx, ty = math.cos(heading), math.sin(heading)
+            rear = cover.offsets_m[0]
+            tail_disc = Blockage(x + rear * tx, y + rear * ty, tx, ty, cover.radius_m)
+            queues.append(Queue(obstacle.id, obstacle.lane_index, tuple(v.id for v in members), tail_disc, gap))
+        self._queues_of, self._queues = observation, (tuple(queues) if ego.lane_role else ())
+        return self._queues
 
     def discs(self, observation: Observation, target_lane: int | None = None) -> tuple[MovingDisc, ...]:
         """Discs of the relevant vehicles, predicted at constant speed along their lanes."""
@@ -263,8 +336,11 @@ class SurroundingsBuilder:
         centre, half = 0.5 * (left + right), 0.5 * (left - right)
         table = self.road.lane_tables[path_lane]
         candidates: list[tuple[float, VehicleObservation]] = []
+        queued = {member for queue in self.queues(observation) for member in queue.members}
         for vehicle in observation.traffic:
             if vehicle.relation != "ahead" or vehicle.lane_s_m is None or vehicle.offset_m > self.config.range_ahead_m:
+                continue
+            if vehicle.id in queued and vehicle.gap_m > QUEUE_LEADER_WITHIN_M:
                 continue
             if vehicle.lane_index != path_lane:
                 if abs(vehicle.lane_index - path_lane) != 1:
@@ -308,6 +384,8 @@ class SurroundingsBuilder:
         _, lateral = locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)
         reach = 0.5 * self.ego_width_m
         left, right = self._lane_bounds[target_lane]
+        for lane in self.passing_lanes(observation, target_lane):
+            left, right = max(left, self._lane_bounds[lane][0]), min(right, self._lane_bounds[lane][1])
         for lane_left, lane_right in self._lane_bounds:
             if lateral - reach < lane_left and lateral + reach > lane_right:  # the box overlaps this lane
                 left, right = max(left, lane_left), min(right, lane_right)
@@ -335,4 +413,6 @@ class SurroundingsBuilder:
             left, right = self.edges(observation.ego.road_s_m, float(ego_state[3]), bounds)
         discs = self.discs(observation, target_lane)
         leaders = self.leaders(observation, target_lane)
-        return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders)
+        blockages = tuple(queue.tail for queue in self.queues(observation))
+        return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
+                            blockages=blockages)

@@ -6,6 +6,7 @@ import pytest
 from agentic_mpc.controller import FourierMPPI, MPPIConfig
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import (
+    Blockage,
     Circle,
     Leader,
     Mandatory,
@@ -49,8 +50,11 @@ def surroundings(horizon):
     leader = Leader(np.hstack([16 + 10 * 0.04 * k, np.full_like(k, 1.0, dtype=float)]), np.tile([1.0, 0.0], (horizon, 1)))
     angle = np.linspace(0.0, 0.4, horizon)[:, None]
     bend = Leader(np.hstack([30 + 20 * np.sin(angle), 1 + 20 * (1 - np.cos(angle))]), np.hstack([np.cos(angle), np.sin(angle)]))
+    # Two blockages: one in line 38 m ahead (inside the room plus stopping distance from 14 m/s), one ahead
+    # and to the left that only some samples end in line with.
+    blockages = (Blockage(40.0, 1.0, 1.0, 0.0, 2.4), Blockage(25.0, 4.5, 0.995, 0.0998, 2.4))
     return Surroundings(moving_discs=(MovingDisc(ahead, 2.5),), road_left_edge=edge, road_right_edge=right,
-                        leaders=(leader, bend))
+                        leaders=(leader, bend), blockages=blockages)
 
 
 @pytest.mark.parametrize("name", list(specifications()))

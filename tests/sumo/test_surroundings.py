@@ -154,3 +154,31 @@ def test_the_time_gap_leader_is_the_nearest_vehicle_ahead_in_the_path_and_a_car_
         (left_leader,) = builder.leaders(observation, target_lane=2)
         assert left_leader.tangents[0] @ (left_leader.contact_points[0] - [ego.x_m, ego.y_m]) == pytest.approx(
             neighbour.gap_m + 15.0 * 0.04, abs=0.3)
+
+
+def test_a_stopped_car_and_the_queue_behind_it_block_the_lane_together():
+    """Two cars standing nose to tail behind a stopped car ahead of the ego: one blockage, its tail the last
+    car; the queue is not a time-gap leader (that would hold the ego behind it for ever) unless the ego is
+    already nose to tail with it; and the lanes beside open to the corridor for going round."""
+    from agentic_mpc.sumo.config import StaticObstacle
+    from agentic_mpc.sumo.surroundings import QUEUE_LEADER_WITHIN_M
+
+    obstacle = StaticObstacle(id="stopped", lane="center", pos_m=280.0)
+    queue = (VehicleSpawn(id="queued1", lane="center", pos_m=273.0, lane_changes=False),
+             VehicleSpawn(id="queued2", lane="center", pos_m=266.0, lane_changes=False))
+    config = curvy_config(obstacles=(obstacle,), vehicles=queue, surroundings=SurroundingsConfig(edges="corridor"))
+    with SumoWorld(config) as world:
+        builder, observation = builder_of(world), world.observation
+        (blockage,) = builder.queues(observation)
+        assert blockage.obstacle_id == "stopped" and blockage.members == ("queued1", "queued2")
+        tail = observation.vehicle("queued2")
+        assert tail.gap_m > QUEUE_LEADER_WITHIN_M
+        # The tail disc sits at the back of the last car's cover, on its lane's heading.
+        behind_tail = math.hypot(blockage.tail.x_m - tail.x_m, blockage.tail.y_m - tail.y_m)
+        assert 0.0 < behind_tail < 0.5 * (tail.length_m + world.ego_length_m)
+        assert builder.leaders(observation, target_lane=1) == ()
+        # Within 80 m of the blockage: both lanes beside the centre lane join the corridor.
+        assert tail.gap_m < 80.0
+        assert builder.passing_lanes(observation, target_lane=1) == frozenset({0, 2})
+        assert builder.corridor(observation, target_lane=1) == pytest.approx((5.25, -5.25), abs=0.01)
+        assert builder.build(observation, world.ego_state, target_lane=1).blockages == (blockage.tail,)

@@ -1,0 +1,80 @@
+"""J0's queue room behind a blockage: how far back a plan may end, worked out from the model's geometry."""
+
+import numpy as np
+import pytest
+
+from agentic_mpc.controller import FourierMPPI, MPPIConfig
+from agentic_mpc.primitives import Blockage, Mandatory, PathTracking, Specification, Surroundings
+from agentic_mpc.vehicle import PAPER_PARAMS, step
+
+RADIUS_M = 2.4  # a car's cover: (1.8 + 1.8) / 2 + 0.5 margin
+
+
+def test_pull_out_distance_follows_the_slip_angle_and_the_turning_circle():
+    radius, cos_gamma, sin_gamma = PAPER_PARAMS.pull_out_turn(1.0)
+    assert radius == pytest.approx(32.05, abs=0.01)  # l_r / sin(gamma)
+    assert np.degrees(np.arctan2(sin_gamma, cos_gamma)) == pytest.approx(14.79, abs=0.01)
+    assert PAPER_PARAMS.pull_out_distance_m(0.0, 0.5) == pytest.approx(0.0, abs=1e-9)
+    assert PAPER_PARAMS.pull_out_distance_m(100.0, 1.0) == float("inf")  # the circle turns back first
+
+
+@pytest.mark.parametrize("steer, expected_m", [(1.0, 6.31), (0.5, 10.79)])
+def test_pull_out_distance_is_what_the_model_drives(steer, expected_m):
+    """The closed form against the paper's model stepped at 0.1 m/s (4 mm a step) with the steering held."""
+    state = np.array([0.0, 0.0, 0.0, 0.1])
+    while state[1] < RADIUS_M:
+        previous = state
+        state = step(state, steer, 0.0, 0.0)
+        state[3] = 0.1
+    along = previous[0] + (state[0] - previous[0]) * (RADIUS_M - previous[1]) / (state[1] - previous[1])
+    assert along == pytest.approx(expected_m, abs=0.01)
+    assert PAPER_PARAMS.pull_out_distance_m(RADIUS_M, steer) == pytest.approx(along, abs=0.005)
+
+
+def _standing_costs(distance_m: float, lateral_m: float = 0.0, v_mps: float = 0.0) -> float:
+    """J0's cost of the constant plan 'stand still' (or roll on at v) with a blockage ``distance_m`` ahead of
+    the ego's centre (to the rear disc's edge)."""
+    controller = FourierMPPI(MPPIConfig(samples=2, antithetic=False), seed=0)
+    state = np.array([0.0, lateral_m, 0.0, v_mps])
+    blockage = Blockage(distance_m + RADIUS_M, 0.0, 1.0, 0.0, RADIUS_M)
+    spec = Specification.of(mandatory=Mandatory(brake_effort_weight=0.0, throttle_brake_smoothness_weight=0.0))
+    context = controller.context(state, Surroundings(blockages=(blockage,)))
+    z = np.zeros((2, controller.config.coefficients, 1))
+    z[1, 0, 0] = -1.0 if v_mps == 0.0 else -PAPER_PARAMS.w_v * v_mps / PAPER_PARAMS.w_a  # hold the speed
+    costs, _ = controller.costs(spec.prepare(context), state, z)
+    return float(costs[0])
+
+
+def test_room_is_free_beyond_the_pull_out_distance_and_charged_inside_it():
+    room = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5)
+    assert _standing_costs(room + 0.1) == 0.0
+    assert _standing_costs(room - 1.0) == pytest.approx(20.0 * 1.0, rel=1e-6)  # weight x shortfall^2
+    assert _standing_costs(0.5) == pytest.approx(20.0 * 2.0 * (2.0 * (room - 0.5) - 2.0), rel=1e-6)  # Huber
+
+
+def test_room_shrinks_when_partly_aside_and_vanishes_beside():
+    assert _standing_costs(5.0, lateral_m=1.5) < _standing_costs(5.0, lateral_m=0.0)
+    assert _standing_costs(5.0, lateral_m=RADIUS_M + 0.1) == 0.0
+
+
+def test_a_moving_plan_wants_its_stopping_distance_on_top():
+    room = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5)
+    v = 10.0
+    stopping = v * v / (2 * 4.0)  # 12.5 m at the default 4 m/s^2
+    # The plan rolls 2 s at 10 m/s: from 42 m it ends 22 m short of the blockage, under room + stopping (23.3 m).
+    assert _standing_costs(42.0, v_mps=v) == pytest.approx(20.0 * (room + stopping - 22.0) ** 2, rel=1e-3)
+    assert _standing_costs(44.0, v_mps=v) == 0.0
+
+
+def test_path_tracking_alone_cannot_drag_a_standing_car_into_the_room():
+    """What J1 pulls with at standstill (about 12) against what a metre into the room costs."""
+    controller = FourierMPPI(seed=0)
+    state = np.array([0.0, 0.0, 0.0, 0.0])
+    path = PathTracking(path=[(0.0, 0.0), (200.0, 0.0)], v_ref_mps=15.0)
+    spec = Specification.of(path)
+    context = controller.context(state, Surroundings())
+    z = np.zeros((2, controller.config.coefficients, 1))
+    z[1, 0, 0] = -1.0
+    pull, _ = controller.costs(spec.prepare(context), state, z)
+    room = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5)
+    assert float(pull[0]) < _standing_costs(room - 1.0) + _standing_costs(room - 1.0)
