@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from agentic_mpc.primitives import Circle
-from agentic_mpc.run.stuck import StuckTracker
+from agentic_mpc.run.stuck import StuckTracker, resume_to_v_ref_s
 from agentic_mpc.world.collisions import CollisionTracker
 from agentic_mpc.world.observation import Observation
 
@@ -127,6 +127,8 @@ def summarise(
         "blockages_ahead_at_start": sum(1 for track in recorder.obstacles if track.side != "behind at start"),
         "stuck_s": round(recorder.stuck.longest_s, 3),
         "stuck_reason": recorder.stuck.longest_reason,
+        "resume_to_v_ref_s": resume_to_v_ref_s(trajectory["time_s"], trajectory["v_mps"], trajectory["v_ref_mps"])
+        if len(trajectory) and "v_ref_mps" in trajectory else float("nan"),
         "min_gap_m": finite_or_nan(recorder.min_gap_m),
         "min_ttc_s": finite_or_nan(recorder.min_ttc_s),
         "lane_rms_error_m": finite_or_nan(float(np.sqrt(np.mean(trajectory["tracked_lane_offset_m"] ** 2))))

@@ -7,7 +7,8 @@ free: the controller keeps it still), or what stands there is a static obstacle 
 (a stopped car the ego must go around, not a queue that will move). Standing behind a vehicle of the traffic is queueing, not stuck.
 :class:`StuckTracker` keeps the stuck intervals; ``summary.csv`` has the longest (``stuck_s``) and the count
 of static obstacles the ego got past (``blockages_passed``), ``events.csv`` one ``stuck`` row per interval
-of at least :data:`REPORTED_S`.
+of at least :data:`REPORTED_S`. :func:`resume_to_v_ref_s` says how long the ego took to get back to speed
+after it was last told to move on from a stop (``resume_to_v_ref_s`` in ``summary.csv``).
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from agentic_mpc.world.observation import Observation
 
@@ -30,6 +33,8 @@ REPORTED_S = 2.0
 """A stuck interval at least this long becomes a ``stuck`` event."""
 HOPELESS_S = 10.0
 """Stuck this long behind obstacles that block every lane of the road: the run ends, saying so."""
+RESUMED_BAND_MPS = 0.5
+"""Back at v_ref: within this of it."""
 BLOCKAGE_SPAN_M = 15.0
 """Obstacles within this distance of each other along the road block the road together."""
 
@@ -125,3 +130,15 @@ def _why_still(observation: Observation, lane_count: int | None) -> str | None:
     if lane_count is not None and len({o.lane_index for o in together}) >= lane_count:
         return f"every lane blocked ({', '.join(sorted(o.id for o in together))})"
     return f"behind obstacle {identifier}"
+
+
+def resume_to_v_ref_s(time_s: Any, v_mps: Any, v_ref_mps: Any) -> float:
+    """Seconds from the last resume (the reference speed rising from 0 to above it) until the ego's speed is
+    within :data:`RESUMED_BAND_MPS` of the new reference; NaN without a resume, inf if it never got there."""
+    time_s, v_mps, v_ref_mps = (np.asarray(a, dtype=np.float64) for a in (time_s, v_mps, v_ref_mps))
+    resumes = np.flatnonzero((v_ref_mps[1:] > STANDING_MPS) & (v_ref_mps[:-1] <= STANDING_MPS)) + 1
+    if not len(resumes):
+        return math.nan
+    start = int(resumes[-1])
+    back = np.flatnonzero(v_mps[start:] >= v_ref_mps[start:] - RESUMED_BAND_MPS)
+    return round(float(time_s[start + back[0]] - time_s[start]), 3) if len(back) else math.inf

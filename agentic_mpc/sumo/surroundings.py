@@ -260,10 +260,12 @@ class SurroundingsBuilder:
                     break
                 members.append(vehicle)
                 rear_s = vehicle.road_s_m - 0.5 * vehicle.length_m
-            if members:
+            if members:  # the band is its lane's: a car aligned to the side of its lane (a rescue lane) must
+                # not put the ego beside it in the next lane "in line" with the queue
                 tail = members[-1]
-                cover, gap = self._cover(tail), tail.gap_m
-                x, y, heading = tail.x_m, tail.y_m, tail.heading_rad
+                cover, gap, heading = self._cover(tail), tail.gap_m, tail.heading_rad
+                x = tail.x_m + tail.lateral_offset_m * math.sin(heading)
+                y = tail.y_m - tail.lateral_offset_m * math.cos(heading)
             else:
                 cover = disc_cover(obstacle.length_m, obstacle.width_m, self.ego_length_m, self.ego_width_m,
                                    self.config.clearance_margin_m)

@@ -117,3 +117,13 @@ outputs: {{plot: false, replay: false}}
     assert summary["stuck_s"] == pytest.approx(HOPELESS_S, abs=0.1) and summary["blockages_passed"] == 0
     with (tmp_path / "run" / "events.csv").open() as events:
         assert [row["event"] for row in csv.DictReader(events)].count("stuck") == 1
+
+
+def test_resume_to_v_ref_counts_from_the_last_resume_to_back_at_speed():
+    from agentic_mpc.run.stuck import resume_to_v_ref_s
+
+    t = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    v_ref = [15.0, 0.0, 0.0, 15.0, 15.0, 15.0, 15.0]
+    assert resume_to_v_ref_s(t, [15.0, 8.0, 0.0, 0.0, 9.0, 14.6, 15.0], v_ref) == 2.0  # 14.6: within 0.5
+    assert resume_to_v_ref_s(t, [15.0, 8.0, 0.0, 0.0, 2.0, 5.0, 9.0], v_ref) == float("inf")
+    assert resume_to_v_ref_s(t, [15.0] * 7, [15.0] * 7) != resume_to_v_ref_s(t, [15.0] * 7, [15.0] * 7)  # NaN
