@@ -54,6 +54,13 @@ class PathTracking(Primitive):
         description="reference points start at the ego's speed and reach v_ref at this rate; None: the paper's "
         "constant-speed points (which at v_ref = 0 demand an instant stop and make lane changes overshoot)",
     )
+    reference_start_mps: float = Field(
+        2.0,
+        ge=0,
+        le=100,
+        description="the ramp starts at the ego's speed, but not below this (nor above v_ref): from a standstill a "
+        "ramp from 0 pulls with about 12, and the car stood beside a blocked lane with the road ahead free",
+    )
     weight: float = Field(3.0, gt=0, description="paper: 1 with normalise_by_horizon off")
     lateral_weight: float = Field(
         1.0,
@@ -81,6 +88,7 @@ class PathTracking(Primitive):
             "lane": self.lane,
             "v_ref_mps": self.v_ref_mps,
             "reference_accel_mps2": self.reference_accel_mps2,
+            "reference_start_mps": self.reference_start_mps,
             "weight": self.weight,
             "lateral_weight": self.lateral_weight,
             "normalise_by_horizon": self.normalise_by_horizon,
@@ -94,8 +102,9 @@ class PathTracking(Primitive):
         from agentic_mpc.primitives.reference_kernel import reference_points  # compiled: load on first use
 
         x, y, _, v = (float(value) for value in context.state)
+        v_start = max(v, min(self.v_ref_mps, self.reference_start_mps))
         points, tangents = reference_points(
-            self.path, x, y, v, self.v_ref_mps, self.reference_accel_mps2, context.dt_s, context.horizon
+            self.path, x, y, v_start, self.v_ref_mps, self.reference_accel_mps2, context.dt_s, context.horizon
         )
         stage_weight = 0.5 * per_stage(self.weight, context.horizon, self.normalise_by_horizon)
         return PreparedPathTracking(TrackingReference(points, tangents), stage_weight, self.lateral_weight)

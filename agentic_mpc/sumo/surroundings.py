@@ -169,7 +169,12 @@ class SurroundingsBuilder:
         min_half_width = 0.0
         if (c.lane_entry_margin_m is not None and vehicle.lane_s_m is not None
                 and vehicle.lane_index in self._enterable_lanes):
-            min_half_width = 0.5 * self.road.lane_widths_m[vehicle.lane_index] + c.lane_entry_margin_m
+            # Up to its lane's edge + margin, from the lane's centre: a car standing aligned towards the ego (a
+            # rescue lane) must not push the cover into the ego's own lane (measured: stopped beside a queue
+            # aligned 0.85 m towards it, the ego could not drive on in its lane with the road ahead free).
+            side = 1.0 if (vehicle.relative_lane or 0) > 0 else -1.0  # +1: its lane is left of the ego's
+            towards_ego = max(0.0, -side * vehicle.lateral_offset_m)
+            min_half_width = 0.5 * self.road.lane_widths_m[vehicle.lane_index] + c.lane_entry_margin_m - towards_ego
         key = (vehicle.length_m, vehicle.width_m, min_half_width)
         cover = self._covers.get(key)
         if cover is None:
