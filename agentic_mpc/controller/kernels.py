@@ -89,6 +89,7 @@ def rollout_costs(
     leader_points,
     leader_tan,
     leader_start,
+    leader_standstill,
     time_gap,
     queue_rooms,
     work,
@@ -214,12 +215,13 @@ def rollout_costs(
             for i in range(n_samples):
                 violation = max(0.0, margin + side * (tx * (y[i] - ey) - ty * (x[i] - ex)))
                 costs[i] += weight * violation * violation
-        gap_s, gap_m, gap_w, knee = time_gap[0], time_gap[1], time_gap[2], time_gap[3]
+        gap_s, gap_w, knee = time_gap[0], time_gap[2], time_gap[3]
         for o in range(leader_points.shape[0]):  # J0's time gap: along the path to the contact point
             lx, ly, tx, ty = leader_points[o, k, 0], leader_points[o, k, 1], leader_tan[o, k, 0], leader_tan[o, k, 1]
             cap = leader_start[o] + time_gap[4] * (k + 1)  # the wanted gap grows from the gap now at most this fast
+            d0 = leader_standstill[o]  # J0's standstill gap, or the room to pull out before a blockage
             for i in range(n_samples):
-                shortfall = max(0.0, min(gap_s * v[i] + gap_m, cap) - (tx * (lx - x[i]) + ty * (ly - y[i])))
+                shortfall = max(0.0, min(gap_s * v[i] + d0, cap) - (tx * (lx - x[i]) + ty * (ly - y[i])))
                 costs[i] += gap_w * (knee * (2.0 * shortfall - knee) if shortfall > knee else shortfall * shortfall)
     for o in range(queue_rooms.shape[0]):  # J0's room to pull out behind a blockage, on the plan's last state
         cx, cy, tx, ty = queue_rooms[o, 0], queue_rooms[o, 1], queue_rooms[o, 2], queue_rooms[o, 3]

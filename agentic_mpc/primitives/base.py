@@ -86,6 +86,9 @@ class Leader:
 
     contact_points: FloatArray
     tangents: FloatArray
+    queue_lateral_m: float | None = None
+    """Set when the leader drives up to a blockage in its lane (it will stand in the queue behind it): J0 then
+    wants room behind it at standstill to pull out this far aside (the cover's radius), not only d_0."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -155,6 +158,7 @@ class FusedArrays(NamedTuple):
     leader_points: FloatArray  # (n_leaders, H, 2) contact points (see Leader)
     leader_tan: FloatArray  # (n_leaders, H, 2)
     leader_start: FloatArray  # (n_leaders,): the gap now (at least the standstill gap), m
+    leader_standstill: FloatArray  # (n_leaders,): the wanted gap at standstill d_0, m (more before a blockage)
     time_gap: FloatArray  # (5,): time gap s, standstill gap m, weight per stage, Huber knee m, recovery m per step
     queue_rooms: FloatArray  # (n, 10): rear disc x, y, lane tangent x, y, radius, turn radius, cos and sin of its
     # slip angle, 1/(2 decel), weight on the last stage
@@ -172,7 +176,7 @@ class FusedTerms:
     limits: tuple[float, ...] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     discs: list[tuple[FloatArray, float, float]] = field(default_factory=list)
     edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
-    leaders: list[tuple[FloatArray, FloatArray, float]] = field(default_factory=list)
+    leaders: list[tuple[FloatArray, FloatArray, float, float]] = field(default_factory=list)
     time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
     queue_rooms: list[tuple[float, ...]] = field(default_factory=list)
 
@@ -207,9 +211,10 @@ class FusedTerms:
             edge_ref=stack([p for p, _, _, _, _ in self.edges]),
             edge_tan=stack([t for _, t, _, _, _ in self.edges]),
             edge_params=table([(side, margin, w) for _, _, side, margin, w in self.edges], 3),
-            leader_points=stack([p for p, _, _ in self.leaders]),
-            leader_tan=stack([t for _, t, _ in self.leaders]),
-            leader_start=np.array([start for _, _, start in self.leaders], dtype=np.float64),
+            leader_points=stack([p for p, _, _, _ in self.leaders]),
+            leader_tan=stack([t for _, t, _, _ in self.leaders]),
+            leader_start=np.array([start for _, _, start, _ in self.leaders], dtype=np.float64),
+            leader_standstill=np.array([standstill for *_, standstill in self.leaders], dtype=np.float64),
             time_gap=_table((self.time_gap,), len(self.time_gap))[0],
             queue_rooms=table(self.queue_rooms, 10),
         )

@@ -133,7 +133,12 @@ class Mandatory(Primitive):
         leaders = s.leaders if self.time_gap_weight > 0.0 else ()
         # The gap now (from the first stage's contact point), where the wanted gap may start from.
         x_m, y_m = context.state[0], context.state[1]
-        starts = tuple(max(self.standstill_gap_m, _gap_along_path_m(leader, x_m, y_m)) for leader in leaders)
+        standstill = tuple(
+            self.standstill_gap_m if leader.queue_lateral_m is None else
+            max(self.standstill_gap_m, context.params.pull_out_distance_m(leader.queue_lateral_m, self.queue_room_steer))
+            for leader in leaders
+        )
+        starts = tuple(max(d0, _gap_along_path_m(leader, x_m, y_m)) for leader, d0 in zip(leaders, standstill))
         turn = context.params.pull_out_turn(self.queue_room_steer)
         rooms = tuple(
             (b.x_m, b.y_m, b.tangent_x, b.tangent_y, b.radius_m, *turn, 0.5 / self.queue_room_decel_mps2,
@@ -141,7 +146,7 @@ class Mandatory(Primitive):
             for b in (s.blockages if self.queue_room_weight > 0.0 else ())
         )
         return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
-                                 starts, context.dt_s, rooms)
+                                 starts, context.dt_s, rooms, standstill)
 
 
 def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
@@ -165,6 +170,8 @@ class PreparedMandatory:
     queue_rooms: tuple[tuple[float, ...], ...] = ()
     """Per blockage: rear disc x, y, lane tangent x, y, radius, the pull-out turn (radius, cos and sin of the
     slip angle), 1 / (2 b), weight (on the last stage: the whole horizon's worth)."""
+    standstill_gaps_m: tuple[float, ...] = ()
+    """Per leader: d_0, or the room to pull out behind one that drives up to a blockage."""
 
     def cost(self, r: Rollouts) -> FloatArray:
         p, h = self.spec, self.horizon
@@ -189,11 +196,11 @@ class PreparedMandatory:
             violation = np.maximum(0.0, p.road_edge_margin_m + side * e_lat)
             total += p.road_edge_weight / h * np.sum(violation**2, axis=0)
         recovery = p.time_gap_recovery_mps * self.dt_s * np.arange(1, h + 1)[:, None]
-        for leader, start in zip(self.leaders, self.gap_starts_m, strict=True):
+        for leader, start, d0 in zip(self.leaders, self.gap_starts_m, self.standstill_gaps_m, strict=True):
             cx, cy = leader.contact_points[:, 0:1], leader.contact_points[:, 1:2]
             tx, ty = leader.tangents[:, 0:1], leader.tangents[:, 1:2]
             gap = tx * (cx - r.x_m) + ty * (cy - r.y_m)
-            wanted = np.minimum(p.time_gap_s * r.v_mps + p.standstill_gap_m, start + recovery)
+            wanted = np.minimum(p.time_gap_s * r.v_mps + d0, start + recovery)
             shortfall = np.maximum(0.0, wanted - gap)
             q = p.time_gap_quadratic_m
             huber = np.where(shortfall > q, q * (2.0 * shortfall - q), shortfall**2)
@@ -230,7 +237,7 @@ class PreparedMandatory:
             terms.edges.append((edge.points, edge.tangents, side, p.road_edge_margin_m, p.road_edge_weight / h))
         terms.time_gap = (p.time_gap_s, p.standstill_gap_m, p.time_gap_weight / h, p.time_gap_quadratic_m,
                           p.time_gap_recovery_mps * self.dt_s)
-        for leader, start in zip(self.leaders, self.gap_starts_m, strict=True):
-            terms.leaders.append((leader.contact_points, leader.tangents, start))
+        for leader, start, d0 in zip(self.leaders, self.gap_starts_m, self.standstill_gaps_m, strict=True):
+            terms.leaders.append((leader.contact_points, leader.tangents, start, d0))
         terms.queue_rooms.extend(self.queue_rooms)
         return True

@@ -10,8 +10,8 @@ Two forms, both in the paper's shape ``weight/(2H) * sum min(0, sign * e)^2`` wi
   dead zone: ``min(0, sign * e_lat + dead_zone_m)``. It penalises only evading to the unwanted side, which
   is what "avoid obstacles from the right" means, and costs nothing while the car tracks its lane (without
   the dead zone, sampling noise on the penalised side is cut off and the car sits ~1 m off its lane). When
-  the ego already is further to the unwanted side than the dead zone, that offset is the dead zone: going
-  further costs, coming back does not. See docs/cost-design.md for the measurements.
+  the ego already is further to the unwanted side than the dead zone, the dead zone is measured from where
+  it is: going further than that costs, coming back does not. See docs/cost-design.md for the measurements.
 """
 
 from __future__ import annotations
@@ -65,14 +65,16 @@ class PreferredSteeringDirection(Primitive):
             reference = TrackingReference(
                 np.tile([x, y], (h, 1)), np.tile([np.cos(phi), np.sin(phi)], (h, 1))
             )
-        # Where the ego already is on the unwanted side (after a lane change to that side, say) counts as the
-        # dead zone: J3 charges going further, never the way back (docs/traffic.md: standing 3.5 m to the
-        # unwanted side cost 755 whatever the plan, and the car stood for 60 s).
+        # Beyond the dead zone on the unwanted side already (after a lane change to that side, say), the dead
+        # zone is measured from where the ego is: J3 charges going further, never the way back, and leaves it
+        # the same room to move as on its lane (docs/traffic.md: standing 3.5 m to the unwanted side cost 755
+        # whatever the plan, and the car stood for 60 s).
         tx, ty = float(reference.tangents[0, 0]), float(reference.tangents[0, 1])
         rx, ry = float(reference.points[0, 0]), float(reference.points[0, 1])
         x_m, y_m = float(context.state[0]), float(context.state[1])
         unwanted_now = -self.sign * (tx * (y_m - ry) - ty * (x_m - rx))
-        return PreparedLateralSide(self.sign, stage_weight, max(self.dead_zone_m, unwanted_now), reference)
+        dead_zone = self.dead_zone_m if unwanted_now <= self.dead_zone_m else unwanted_now + self.dead_zone_m
+        return PreparedLateralSide(self.sign, stage_weight, dead_zone, reference)
 
 
 @dataclass(frozen=True, slots=True)

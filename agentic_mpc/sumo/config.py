@@ -45,6 +45,13 @@ class SurroundingsConfig(FrozenConfig):
         "corridor and their traffic gets the lane-entry cover, so the ego may go round it there and merges as into "
         "any lane it enters (None: only the lane J1 tracks)",
     )
+    follower_yield_mps2: float = Field(
+        2.0,
+        ge=0,
+        le=9.0,
+        description="a follower in a lane beside a blockage is predicted to brake this hard to let the ego in (gap "
+        "acceptance for the zipper; 0: it keeps its speed)",
+    )
     edges: Literal["road", "corridor", "none"] = Field(
         "road",
         description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"

@@ -57,9 +57,12 @@ QUEUE_STANDING_MPS = 0.5
 """A vehicle slower than this behind a blockage joins its queue."""
 QUEUE_LINK_M = 12.0
 """... if its front bumper is at most this far behind the rear of the queue so far (SUMO queues at 2.5 m)."""
+QUEUE_APPROACH_M = 50.0
+"""A leader this close behind a queue's tail in its lane is about to stand in it: J0 keeps room behind it."""
 QUEUE_LEADER_WITHIN_M = 4.0
-"""A queue member this close ahead stays a leader of J0's time gap: from there the ego cannot pull out, and
-without the gap term it crept into the car while trying (measured: ego_into_stopped at 0.5 m/s)."""
+"""A queue member this close ahead in the ego's own lane stays a leader of J0's time gap: from there the ego
+cannot pull out, and without the gap term it crept into the car while trying (measured: ego_into_stopped at
+0.5 m/s). In the lane beside, it is not (beside a queue the gap along the tracked lane held the ego still)."""
 CUT_IN_LOOKAHEAD_S = 1.0
 """A neighbour whose box is predicted to reach into the ego's path lane within this time counts as a leader."""
 MAX_LEADERS = 3
@@ -128,6 +131,10 @@ class Queue:
     members: tuple[str, ...]
     tail: Blockage
     tail_gap_m: float
+    tail_rear_s_m: float = 0.0
+    """Road coordinate of the rear of the queue's last car (or of the obstacle)."""
+    nose_to_tail: bool = False
+    """The ego stands in the queue's lane within ``QUEUE_LEADER_WITHIN_M`` of its last car."""
 
 
 class SurroundingsBuilder:
@@ -278,7 +285,9 @@ class SurroundingsBuilder:
             tx, ty = math.cos(heading), math.sin(heading)
             rear = cover.offsets_m[0]
             tail_disc = Blockage(x + rear * tx, y + rear * ty, tx, ty, cover.radius_m)
-            queues.append(Queue(obstacle.id, obstacle.lane_index, tuple(v.id for v in members), tail_disc, gap))
+            nose_to_tail = bool(members) and members[-1].relative_lane == 0 and gap <= QUEUE_LEADER_WITHIN_M
+            queues.append(Queue(obstacle.id, obstacle.lane_index, tuple(v.id for v in members), tail_disc, gap,
+                                rear_s, nose_to_tail))
         self._queues_of, self._queues = observation, (tuple(queues) if ego.lane_role else ())
         return self._queues
 
@@ -298,7 +307,7 @@ class SurroundingsBuilder:
                 per_lane.setdefault(vehicle.lane_index, []).append((vehicle, *relevance))
         discs: list[MovingDisc] = []
         if per_lane:
-            self._lane_discs(discs, per_lane)
+            self._lane_discs(discs, per_lane, self.passing_lanes(observation, target_lane))
         for vehicle, cover, headway in off_road:
             heading = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
             centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * heading
@@ -309,16 +318,27 @@ class SurroundingsBuilder:
         return tuple(discs)
 
     def _lane_discs(self, discs: list[MovingDisc],
-                    per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]]) -> None:
+                    per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]],
+                    passing_lanes: frozenset[int] = frozenset()) -> None:
         """The discs of the vehicles on lanes: one compiled call per lane (see :mod:`agentic_mpc.sumo.kernels`)
         for all its discs, one row each; stage k of a disc is the lane point at lane_s + v * t_k, plus the
-        vehicle's lateral offset along the lane's normal, plus the disc's offset along the lane's tangent."""
+        vehicle's lateral offset along the lane's normal, plus the disc's offset along the lane's tangent.
+
+        Gap acceptance: a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the
+        ego in, braking at ``follower_yield_mps2`` (as the mean speed over the horizon: its position at the
+        horizon's end is exact, earlier ones a little behind). At constant speed no gap in 3240 veh/h was ever
+        long enough to pull out from a standstill, and the ego waited behind the stopped car for good."""
+        yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
         for index, lane_items in per_lane.items():
             rows: list[tuple[float, float, float, float]] = []  # (speed, lane_s, lateral offset, offset)
             radii: list[float] = []
+            yielding = index in passing_lanes and yield_mps > 0.0
             for vehicle, cover, headway in lane_items:
+                speed = vehicle.speed_mps
+                if yielding and vehicle.relation == "behind":
+                    speed = max(0.0, speed - yield_mps)
                 for offset in self._offsets(vehicle, cover, headway):
-                    rows.append((vehicle.speed_mps, vehicle.lane_s_m, vehicle.lateral_offset_m, offset))
+                    rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset))
                     radii.append(cover.radius_m)
             centres = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
             discs.extend(map(MovingDisc, centres, radii))
@@ -347,7 +367,7 @@ class SurroundingsBuilder:
         for vehicle in observation.traffic:
             if vehicle.relation != "ahead" or vehicle.lane_s_m is None or vehicle.offset_m > self.config.range_ahead_m:
                 continue
-            if vehicle.id in queued and vehicle.gap_m > QUEUE_LEADER_WITHIN_M:
+            if vehicle.id in queued and (vehicle.relative_lane != 0 or vehicle.gap_m > QUEUE_LEADER_WITHIN_M):
                 continue
             if vehicle.lane_index != path_lane:
                 if abs(vehicle.lane_index - path_lane) != 1:
@@ -377,9 +397,22 @@ class SurroundingsBuilder:
             arcs += [contact, 0.5 * (contact + ego_s)]  # the tangent halfway is parallel to the chord on an arc
         points, tangents = points_at(table, np.concatenate(arcs))
         return tuple(
-            Leader(points[2 * n * h:(2 * n + 1) * h], np.ascontiguousarray(tangents[(2 * n + 1) * h:(2 * n + 2) * h]))
-            for n in range(len(chosen))
+            Leader(points[2 * n * h:(2 * n + 1) * h], np.ascontiguousarray(tangents[(2 * n + 1) * h:(2 * n + 2) * h]),
+                   self._queue_lateral(observation, vehicle, queued))
+            for n, vehicle in enumerate(chosen)
         )
+
+    def _queue_lateral(self, observation: Observation, vehicle: VehicleObservation, queued: set[str]) -> float | None:
+        """The leader's cover radius if it drives up to a queue's tail in its lane (J0 then keeps room to pull
+        out behind it: otherwise the ego follows it into the queue 2 m behind and is stuck there when the queue
+        does not move), else None."""
+        if vehicle.id in queued:
+            return None
+        front_s = vehicle.road_s_m + 0.5 * vehicle.length_m
+        for queue in self.queues(observation):
+            if queue.lane_index == vehicle.lane_index and 0.0 <= queue.tail_rear_s_m - front_s <= QUEUE_APPROACH_M:
+                return self._cover(vehicle).radius_m
+        return None
 
     def corridor(self, observation: Observation, target_lane: int | None) -> tuple[float, float]:
         """(left, right) lateral bounds from the road's centre line of the lanes the ego may use: those its
@@ -420,6 +453,8 @@ class SurroundingsBuilder:
             left, right = self.edges(observation.ego.road_s_m, float(ego_state[3]), bounds)
         discs = self.discs(observation, target_lane)
         leaders = self.leaders(observation, target_lane)
-        blockages = tuple(queue.tail for queue in self.queues(observation))
+        # Queued nose to tail already (the tail is then a time-gap leader): the room behind it is lost, and
+        # asking for it made the ego steer and creep into the car (ego_into_stopped at 0.2 m/s, seeds 0-2).
+        blockages = tuple(queue.tail for queue in self.queues(observation) if not queue.nose_to_tail)
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
                             blockages=blockages)

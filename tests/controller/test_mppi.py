@@ -49,7 +49,8 @@ def surroundings(horizon):
     # Two leaders: one 14 m ahead at 10 m/s (the samples at 14 m/s fall short of the time gap), one on a bend.
     leader = Leader(np.hstack([16 + 10 * 0.04 * k, np.full_like(k, 1.0, dtype=float)]), np.tile([1.0, 0.0], (horizon, 1)))
     angle = np.linspace(0.0, 0.4, horizon)[:, None]
-    bend = Leader(np.hstack([30 + 20 * np.sin(angle), 1 + 20 * (1 - np.cos(angle))]), np.hstack([np.cos(angle), np.sin(angle)]))
+    bend = Leader(np.hstack([30 + 20 * np.sin(angle), 1 + 20 * (1 - np.cos(angle))]), np.hstack([np.cos(angle), np.sin(angle)]),
+                  queue_lateral_m=2.4)  # driving up to a blockage: room wanted behind it
     # Two blockages: one in line 38 m ahead (inside the room plus stopping distance from 14 m/s), one ahead
     # and to the left that only some samples end in line with.
     blockages = (Blockage(40.0, 1.0, 1.0, 0.0, 2.4), Blockage(25.0, 4.5, 0.995, 0.0998, 2.4))

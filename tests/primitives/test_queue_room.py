@@ -66,15 +66,18 @@ def test_a_moving_plan_wants_its_stopping_distance_on_top():
     assert _standing_costs(44.0, v_mps=v) == 0.0
 
 
-def test_path_tracking_alone_cannot_drag_a_standing_car_into_the_room():
-    """What J1 pulls with at standstill (about 12) against what a metre into the room costs."""
+def test_a_car_standing_at_its_room_stays_there_rather_than_creep_in():
+    """J1 + J0 from standing exactly at the room: standing beats creeping 1 m and 3 m further in."""
     controller = FourierMPPI(seed=0)
+    room = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5)
     state = np.array([0.0, 0.0, 0.0, 0.0])
     path = PathTracking(path=[(0.0, 0.0), (200.0, 0.0)], v_ref_mps=15.0)
+    blockage = Blockage(room + 0.05 + RADIUS_M, 0.0, 1.0, 0.0, RADIUS_M)
     spec = Specification.of(path)
-    context = controller.context(state, Surroundings())
-    z = np.zeros((2, controller.config.coefficients, 1))
-    z[1, 0, 0] = -1.0
-    pull, _ = controller.costs(spec.prepare(context), state, z)
-    room = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5)
-    assert float(pull[0]) < _standing_costs(room - 1.0) + _standing_costs(room - 1.0)
+    prepared = spec.prepare(controller.context(state, Surroundings(blockages=(blockage,))))
+    z = np.zeros((2, controller.config.coefficients, 3))
+    z[1, 0] = [-0.3, 0.11, 0.33]  # stand; creep about 1 m; about 3 m (a constant throttle over the 2 s)
+    rolled = controller.rollouts(state, z)
+    assert 0.5 < rolled.x_m[-1, 1] < 1.5 and 2.0 < rolled.x_m[-1, 2] < 4.0
+    costs, _ = controller.costs(prepared, state, z)
+    assert costs[0] < costs[1] < costs[2]

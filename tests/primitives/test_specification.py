@@ -133,3 +133,35 @@ def test_j3_lateral_form_costs_nothing_on_the_lane_and_penalises_the_wrong_side(
     cost = j3.cost(rollout_at([0.0, 2.5, -2.5]))
     assert cost[0] == 0 and cost[1] == 0 and cost[2] > 0  # on the lane, left of it, right of it
     assert cost[2] == pytest.approx(0.5 * 200 / h * h * (2.5 - 1.0) ** 2)
+
+
+def test_j3_lateral_form_charges_going_further_to_the_wrong_side_never_the_way_back():
+    """3 m to the unwanted side (after a lane change there): staying costs nothing, coming back nothing, going
+    further costs what going as far beyond the dead zone costs on the lane."""
+    from agentic_mpc.controller import FourierMPPI
+    from agentic_mpc.primitives import Rollouts
+
+    controller = FourierMPPI()
+    spec = Specification.of(PathTracking(path=LANE, v_ref_mps=10), PreferredSteeringDirection(direction="left"))
+    prepared = spec.prepare(controller.context(np.array([0.0, -3.0, 0.0, 10.0])))
+    j3 = prepared.costs[-1]
+    h = 50
+    xs = np.tile(np.arange(1, h + 1)[:, None] * 0.4, (1, 3))
+    ys = np.tile(np.array([-3.0, -1.0, -4.5]), (h, 1))
+    zero = np.zeros((h, 3))
+    cost = j3.cost(Rollouts(xs, ys, zero, zero + 10, zero, zero, zero, zero, zero))
+    assert cost[0] == 0 and cost[1] == 0
+    assert cost[2] == pytest.approx(0.5 * 200 / h * h * 0.5**2)
+
+
+def test_path_tracking_ramp_starts_at_least_at_its_start_speed():
+    """From a standstill the reference moves off at 2 m/s (then +3 m/s^2), not from 0; never above v_ref."""
+    from agentic_mpc.controller import FourierMPPI
+
+    controller = FourierMPPI()
+    standing = np.array([0.0, 0.0, 0.0, 0.0])
+    for v_ref, first_speed in ((15.0, 2.0), (1.0, 1.0), (0.0, 0.0)):
+        reference = PathTracking(path=LANE, v_ref_mps=v_ref).prepare(controller.context(standing)).reference
+        step = 0.04
+        expected = (first_speed + (3.0 * step if v_ref > first_speed else 0.0)) * step
+        assert reference.points[0, 0] == pytest.approx(expected, abs=1e-9), v_ref
