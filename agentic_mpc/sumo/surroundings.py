@@ -47,22 +47,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agentic_mpc.primitives import Blockage, Circle, Leader, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.primitives import Circle, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
 from agentic_mpc.sumo.network import Road
+from agentic_mpc.sumo.queues import QUEUE_LEADER_WITHIN_M, Queue, drives_up_to_a_queue, find_queues
 from agentic_mpc.world.observation import Observation, ObstacleObservation, VehicleObservation
 
-QUEUE_STANDING_MPS = 0.5
-"""A vehicle slower than this behind a blockage joins its queue."""
-QUEUE_LINK_M = 12.0
-"""... if its front bumper is at most this far behind the rear of the queue so far (SUMO queues at 2.5 m)."""
-QUEUE_APPROACH_M = 50.0
-"""A leader this close behind a queue's tail in its lane is about to stand in it: J0 keeps room behind it."""
-QUEUE_LEADER_WITHIN_M = 4.0
-"""A queue member this close ahead in the ego's own lane stays a leader of J0's time gap: from there the ego
-cannot pull out, and without the gap term it crept into the car while trying (measured: ego_into_stopped at
-0.5 m/s). In the lane beside, it is not (beside a queue the gap along the tracked lane held the ego still)."""
 CUT_IN_LOOKAHEAD_S = 1.0
 """A neighbour whose box is predicted to reach into the ego's path lane within this time counts as a leader."""
 MAX_LEADERS = 3
@@ -118,23 +109,6 @@ def obstacle_circles(
         Circle(x_m=obstacle.x_m + o * c, y_m=obstacle.y_m + o * s, radius_m=cover.radius_m, label=obstacle.id)
         for o in cover.offsets_m
     )
-
-
-@dataclass(frozen=True, slots=True)
-class Queue:
-    """A static obstacle and the vehicles standing nose to tail behind it in its lane (``members``, nearest
-    the obstacle first): they block the lane together. The members are not leaders of J0's time gap (that
-    would hold the ego behind them for ever, along its path); J0 keeps room to pull out behind ``tail``."""
-
-    obstacle_id: str
-    lane_index: int
-    members: tuple[str, ...]
-    tail: Blockage
-    tail_gap_m: float
-    tail_rear_s_m: float = 0.0
-    """Road coordinate of the rear of the queue's last car (or of the obstacle)."""
-    nose_to_tail: bool = False
-    """The ego stands in the queue's lane within ``QUEUE_LEADER_WITHIN_M`` of its last car."""
 
 
 class SurroundingsBuilder:
@@ -251,44 +225,16 @@ class SurroundingsBuilder:
         return frozenset(i for i in (own - 1, own + 1) if 0 <= i < self.road.lane_count)
 
     def queues(self, observation: Observation) -> tuple[Queue, ...]:
-        """Each static obstacle ahead with the vehicles standing behind it in its lane, nose to tail."""
+        """Each static obstacle ahead with the vehicles standing behind it in its lane (:func:`find_queues`)."""
         if self._queues_of is observation:  # asked several times per step
             return self._queues
-        ego = observation.ego
-        queues = []
-        for obstacle in observation.obstacles:
-            if obstacle.relation != "ahead" or obstacle.offset_m > self.config.range_ahead_m:
-                continue
-            standing = sorted(
-                (v for v in observation.traffic
-                 if v.lane_index == obstacle.lane_index and v.lane_s_m is not None and v.relation == "ahead"
-                 and v.speed_mps < QUEUE_STANDING_MPS and v.road_s_m < obstacle.road_s_m),
-                key=lambda v: -v.road_s_m,
-            )
-            rear_s = obstacle.road_s_m - 0.5 * obstacle.length_m
-            members: list[VehicleObservation] = []
-            for vehicle in standing:
-                if rear_s - (vehicle.road_s_m + 0.5 * vehicle.length_m) > QUEUE_LINK_M:
-                    break
-                members.append(vehicle)
-                rear_s = vehicle.road_s_m - 0.5 * vehicle.length_m
-            if members:  # the band is its lane's: a car aligned to the side of its lane (a rescue lane) must
-                # not put the ego beside it in the next lane "in line" with the queue
-                tail = members[-1]
-                cover, gap, heading = self._cover(tail), tail.gap_m, tail.heading_rad
-                x = tail.x_m + tail.lateral_offset_m * math.sin(heading)
-                y = tail.y_m - tail.lateral_offset_m * math.cos(heading)
-            else:
-                cover = disc_cover(obstacle.length_m, obstacle.width_m, self.ego_length_m, self.ego_width_m,
-                                   self.config.clearance_margin_m)
-                gap, x, y, heading = obstacle.gap_m, obstacle.x_m, obstacle.y_m, obstacle.heading_rad
-            tx, ty = math.cos(heading), math.sin(heading)
-            rear = cover.offsets_m[0]
-            tail_disc = Blockage(x + rear * tx, y + rear * ty, tx, ty, cover.radius_m)
-            nose_to_tail = bool(members) and members[-1].relative_lane == 0 and gap <= QUEUE_LEADER_WITHIN_M
-            queues.append(Queue(obstacle.id, obstacle.lane_index, tuple(v.id for v in members), tail_disc, gap,
-                                rear_s, nose_to_tail))
-        self._queues_of, self._queues = observation, (tuple(queues) if ego.lane_role else ())
+        margin = self.config.clearance_margin_m
+        self._queues = find_queues(
+            observation, self._cover,
+            lambda o: disc_cover(o.length_m, o.width_m, self.ego_length_m, self.ego_width_m, margin),
+            self.config.range_ahead_m,
+        )
+        self._queues_of = observation
         return self._queues
 
     def discs(self, observation: Observation, target_lane: int | None = None) -> tuple[MovingDisc, ...]:
@@ -406,13 +352,9 @@ class SurroundingsBuilder:
         """The leader's cover radius if it drives up to a queue's tail in its lane (J0 then keeps room to pull
         out behind it: otherwise the ego follows it into the queue 2 m behind and is stuck there when the queue
         does not move), else None."""
-        if vehicle.id in queued:
+        if vehicle.id in queued or not drives_up_to_a_queue(self.queues(observation), vehicle):
             return None
-        front_s = vehicle.road_s_m + 0.5 * vehicle.length_m
-        for queue in self.queues(observation):
-            if queue.lane_index == vehicle.lane_index and 0.0 <= queue.tail_rear_s_m - front_s <= QUEUE_APPROACH_M:
-                return self._cover(vehicle).radius_m
-        return None
+        return self._cover(vehicle).radius_m
 
     def corridor(self, observation: Observation, target_lane: int | None) -> tuple[float, float]:
         """(left, right) lateral bounds from the road's centre line of the lanes the ego may use: those its

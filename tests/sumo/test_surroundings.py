@@ -161,7 +161,7 @@ def test_a_stopped_car_and_the_queue_behind_it_block_the_lane_together():
     car; the queue is not a time-gap leader (that would hold the ego behind it for ever) unless the ego is
     already nose to tail with it; and the lanes beside open to the corridor for going round."""
     from agentic_mpc.sumo.config import StaticObstacle
-    from agentic_mpc.sumo.surroundings import QUEUE_LEADER_WITHIN_M
+    from agentic_mpc.sumo.queues import QUEUE_LEADER_WITHIN_M
 
     obstacle = StaticObstacle(id="stopped", lane="center", pos_m=280.0)
     queue = (VehicleSpawn(id="queued1", lane="center", pos_m=273.0, lane_changes=False),
