@@ -159,7 +159,8 @@ class FusedArrays(NamedTuple):
     leader_tan: FloatArray  # (n_leaders, H, 2)
     leader_start: FloatArray  # (n_leaders,): the gap now (at least the standstill gap), m
     leader_standstill: FloatArray  # (n_leaders,): the wanted gap at standstill d_0, m (more before a blockage)
-    time_gap: FloatArray  # (5,): time gap s, standstill gap m, weight per stage, Huber knee m, recovery m per step
+    time_gap: FloatArray  # (5,): time gap s, standstill gap m (the kernel reads leader_standstill), weight per
+    # stage, Huber knee m, recovery m per step
     queue_rooms: FloatArray  # (n, 10): rear disc x, y, lane tangent x, y, radius, turn radius, cos and sin of its
     # slip angle, 1/(2 decel), weight on the last stage
 
