@@ -145,14 +145,14 @@ class SurroundingsBuilder:
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
 
-    def _cover(self, vehicle: VehicleObservation) -> DiscCover:
+    def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
+        """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""
         c = self.config
         min_half_width = 0.0
-        if (c.lane_entry_margin_m is not None and vehicle.lane_s_m is not None
+        if (not physical and c.lane_entry_margin_m is not None and vehicle.lane_s_m is not None
                 and vehicle.lane_index in self._enterable_lanes):
-            # Up to its lane's edge + margin, from the lane's centre: a car standing aligned towards the ego (a
-            # rescue lane) must not push the cover into the ego's own lane (measured: stopped beside a queue
-            # aligned 0.85 m towards it, the ego could not drive on in its lane with the road ahead free).
+            # To its lane's edge + margin from the lane's centre: a car aligned towards the ego (rescue lane) must
+            # not push the cover into the ego's lane (beside such a queue the ego could not drive on).
             side = 1.0 if (vehicle.relative_lane or 0) > 0 else -1.0  # +1: its lane is left of the ego's
             towards_ego = max(0.0, -side * vehicle.lateral_offset_m)
             min_half_width = 0.5 * self.road.lane_widths_m[vehicle.lane_index] + c.lane_entry_margin_m - towards_ego
@@ -228,9 +228,9 @@ class SurroundingsBuilder:
         """Each static obstacle ahead with the vehicles standing behind it in its lane (:func:`find_queues`)."""
         if self._queues_of is observation:  # asked several times per step
             return self._queues
-        margin = self.config.clearance_margin_m
+        margin = self.config.clearance_margin_m  # physical covers: which lanes are enterable depends on the queues
         self._queues = find_queues(
-            observation, self._cover,
+            observation, lambda v: self._cover(v, physical=True),
             lambda o: disc_cover(o.length_m, o.width_m, self.ego_length_m, self.ego_width_m, margin),
             self.config.range_ahead_m,
         )
@@ -271,9 +271,8 @@ class SurroundingsBuilder:
         vehicle's lateral offset along the lane's normal, plus the disc's offset along the lane's tangent.
 
         Gap acceptance: a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the
-        ego in, braking at ``follower_yield_mps2`` (as the mean speed over the horizon: its position at the
-        horizon's end is exact, earlier ones a little behind). At constant speed no gap in 3240 veh/h was ever
-        long enough to pull out from a standstill, and the ego waited behind the stopped car for good."""
+        ego in, braking at ``follower_yield_mps2`` (as its mean speed over the horizon). At constant speed no
+        gap in 3240 veh/h let the ego pull out from a standstill (docs/traffic.md)."""
         yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
         for index, lane_items in per_lane.items():
             rows: list[tuple[float, float, float, float]] = []  # (speed, lane_s, lateral offset, offset)
@@ -349,9 +348,8 @@ class SurroundingsBuilder:
         )
 
     def _queue_lateral(self, observation: Observation, vehicle: VehicleObservation, queued: set[str]) -> float | None:
-        """The leader's cover radius if it drives up to a queue's tail in its lane (J0 then keeps room to pull
-        out behind it: otherwise the ego follows it into the queue 2 m behind and is stuck there when the queue
-        does not move), else None."""
+        """The leader's cover radius if it drives up to a queue's tail in its lane, else None: J0 then keeps room
+        to pull out behind it, rather than follow it into a queue that may never move."""
         if vehicle.id in queued or not drives_up_to_a_queue(self.queues(observation), vehicle):
             return None
         return self._cover(vehicle).radius_m
