@@ -8,7 +8,8 @@ import importlib
 import os
 import sys
 
-COMMANDS = ("run", "batch", "check", "scenarios", "plot", "replay", "demo", "ask", "eval_agent", "serve", "bench")
+COMMANDS = ("run", "batch", "check", "scenarios", "plot", "replay", "demo", "ask", "eval_agent", "serve", "bench",
+            "lampilot", "knowledge_server")
 """Command modules under agentic_mpc.commands, in the order ``--help`` lists them."""
 
 

@@ -76,6 +76,17 @@ class ChatSettings(AgentRunSettings):
                                                                          "(e.g. top_p)")
     timeout_s: float = Field(120.0, gt=0, description="seconds per answer; the agent step's own timeout is this "
                                                       "plus 5 s, so the backend's runs out first")
+    rules_first: bool = Field(False, description="the rules backend answers what it understands, the model the "
+                                                 "rest (agent/backends/rules_first.py)")
+
+    def with_rules_first(self, model: Any, lefthand: bool) -> Any:
+        """``model``, or the rules in front of it when ``rules_first`` is set."""
+        if not self.rules_first:
+            return model
+        from agentic_mpc.agent.backends.rules import RulesBackend
+        from agentic_mpc.agent.backends.rules_first import RulesFirst
+
+        return RulesFirst(RulesBackend(yield_lane="left" if lefthand else "right"), model)
 
     @property
     def effective_tool_mode(self) -> ToolMode:
@@ -94,7 +105,7 @@ class OpenAISettings(ChatSettings):
     def build_backend(self, lefthand: bool) -> Any:
         from agentic_mpc.agent.backends.openai import OpenAIBackend
 
-        return OpenAIBackend(self)
+        return self.with_rules_first(OpenAIBackend(self), lefthand)
 
 
 class LlamaCppSettings(ChatSettings):
@@ -119,7 +130,7 @@ class LlamaCppSettings(ChatSettings):
     def build_backend(self, lefthand: bool) -> Any:
         from agentic_mpc.agent.backends.llamacpp import LlamaCppBackend
 
-        return LlamaCppBackend(self)
+        return self.with_rules_first(LlamaCppBackend(self), lefthand)
 
 
 BACKEND_SETTINGS: dict[str, type[AgentRunSettings]] = {}

@@ -15,7 +15,8 @@ from collections.abc import Callable
 from typing import Any
 
 from agentic_mpc.agent.connect import read_json_resource
-from agentic_mpc.mcp.protocol import EGO_URI, EMERGENCY_VEHICLES_URI, SPECIFICATION_URI
+from agentic_mpc.mcp.protocol import EGO_URI, EMERGENCY_VEHICLES_URI, ROAD_URI, SPECIFICATION_URI, TRAFFIC_URI
+from agentic_mpc.world.lanes import LEADER_RANGE_M
 from agentic_mpc.world.emergency import EmergencyDetector, EmergencyEvent
 
 MAX_EMERGENCY_LISTED = 3
@@ -26,7 +27,9 @@ async def read_situation(client: Any) -> str | None:
     ego = await read_json_resource(client, EGO_URI, missing=logging.INFO)
     emergency = await read_json_resource(client, EMERGENCY_VEHICLES_URI, missing=logging.INFO)
     specification = await read_json_resource(client, SPECIFICATION_URI, missing=logging.INFO)
-    return describe_situation(ego, emergency, specification)
+    traffic = await read_json_resource(client, TRAFFIC_URI, missing=logging.INFO)
+    road = await read_json_resource(client, ROAD_URI, missing=logging.INFO)
+    return describe_situation(ego, emergency, specification, traffic, road)
 
 
 def _number(value: Any) -> float | None:
@@ -34,7 +37,8 @@ def _number(value: Any) -> float | None:
 
 
 def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | None,
-                       specification: dict[str, Any] | None) -> str | None:
+                       specification: dict[str, Any] | None, traffic: dict[str, Any] | None = None,
+                       road: dict[str, Any] | None = None) -> str | None:
     """``Current situation (t = 12.3 s): ...`` from the three resources' JSON (any of them may be None)."""
     lines: list[str] = []
     t = _number((ego or {}).get("time_s"))
@@ -45,6 +49,10 @@ def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | N
         offset = _number(car.get("lateral_offset_m"))
         where = f" {abs(offset):.1f} m {'left' if offset > 0 else 'right'} of its centre" if offset and abs(offset) >= 0.3 else ""
         lines.append(f"- we drive at {speed:.1f} m/s ({speed * 3.6:.0f} km/h) in the {lane} lane{where}")
+    if road is not None and (sides := _sides_line(road, car.get("lane_index"))):
+        lines.append(sides)
+    if traffic is not None:
+        lines.append(_leader_line(traffic))
     if emergency is not None:
         vehicles = [v for v in emergency.get("emergency_vehicles") or [] if isinstance(v, dict)]
         if not vehicles:
@@ -62,6 +70,33 @@ def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | N
         return None
     stamp = f" (t = {t:.1f} s)" if t is not None else ""
     return f"Current situation{stamp}:\n" + "\n".join(lines)
+
+
+def _sides_line(road: dict[str, Any], lane_index: Any) -> str | None:
+    """How many lanes lie to each side of ours (and which is the emergency lane), from ``sumo://road``."""
+    lanes = [lane for lane in road.get("lanes") or [] if isinstance(lane, dict)]
+    indices = [lane.get("index") for lane in lanes]
+    if not isinstance(lane_index, int) or lane_index not in indices:
+        return None
+    position = indices.index(lane_index)  # listed from the road edge outwards
+    edge_side, far_side = ("left", "right") if road.get("lefthand") else ("right", "left")
+    toward_edge, away = lanes[:position], lanes[position + 1:]
+    text = f"- lanes to our {far_side}: {len(away)}, to our {edge_side}: {len(toward_edge)}"
+    if road.get("emergency_lane") in [lane.get("name") for lane in toward_edge]:
+        text += f" (the {edge_side}-most of them the emergency lane)"
+    return text
+
+
+def _leader_line(traffic: dict[str, Any]) -> str:
+    """The car ahead in our lane (for a following distance or an overtake), from ``sumo://traffic``."""
+    ahead = [v for v in traffic.get("vehicles") or [] if isinstance(v, dict) and v.get("relation") == "ahead"
+             and v.get("relative_lane") == 0 and _number(v.get("gap_m")) is not None and 0 <= v["gap_m"] <= LEADER_RANGE_M]
+    if not ahead:
+        return f"- no car ahead in our lane within {LEADER_RANGE_M:g} m"
+    leader = min(ahead, key=lambda v: v["gap_m"])
+    speed = _number(leader.get("speed_mps"))
+    at = f" at {speed:.1f} m/s" if speed is not None else ""
+    return f"- car ahead in our lane: '{leader.get('id')}' {leader['gap_m']:.0f} m ahead (bumper to bumper){at}"
 
 
 class EmergencyWatch:

@@ -10,7 +10,15 @@ from pathlib import Path
 from typing import IO
 
 from agentic_mpc.batch.executors import connect_to_dask, run_locally, run_on_dask
-from agentic_mpc.batch.planning import BatchInputError, BatchSpec, Runner, plan_batch, runner_reference
+from agentic_mpc.batch.planning import (
+    BatchInputError,
+    BatchJob,
+    BatchSpec,
+    Runner,
+    plan_batch,
+    resolve_runner,
+    runner_reference,
+)
 from agentic_mpc.batch.progress import ProgressBar
 from agentic_mpc.batch.records import BatchSummary
 
@@ -63,15 +71,22 @@ class _Lock:
             self.handle.close()
 
 
-def run_batch(spec: BatchSpec, runner: Runner | str | None = None, progress: bool = True) -> BatchResult:
+def run_batch(spec: BatchSpec, runner: Runner | str | None = None, progress: bool = True,
+              jobs: list[BatchJob] | None = None) -> BatchResult:
     """Run every job of ``spec`` not yet finished; the package docstring says what is guaranteed.
 
-    ``runner`` is the run function (``run_to_directory(scenario_file, variant, seed, out_dir) -> summary row``)
+    ``jobs``: run these instead of planning them from ``spec.files`` (``spec`` still gives the workers, the
+    output directory and the executor). ``runner`` is the run function (``run_to_directory(scenario_file, variant, seed, out_dir) -> summary row``)
     or its ``module:function``; default :data:`DEFAULT_RUNNER`. Raises :class:`BatchInputError` before any
     run starts if the input is bad. Ctrl-C (or SIGTERM) stops the runs in flight and returns ``interrupted``.
     """
     runner_ref = runner_reference(runner)
-    all_jobs = plan_batch(spec, runner_ref)
+    if jobs is None:
+        all_jobs = plan_batch(spec, runner_ref)
+    else:  # planned by the caller (``agentic-mpc lampilot``: one job per case file)
+        if spec.executor == "process":
+            resolve_runner(runner_ref)
+        all_jobs = sorted(jobs)
     client = connect_to_dask(spec.scheduler) if spec.executor == "dask" else None
     spec.out_dir.mkdir(parents=True, exist_ok=True)
     with _Lock(spec.out_dir), _interrupt_on_sigterm(), contextlib.closing(client) if client else contextlib.nullcontext():

@@ -184,7 +184,7 @@ def _suite(args: argparse.Namespace) -> int:
         else:
             return rules
         if args.rules_first:
-            from agentic_mpc.agent_eval.hybrid import RulesFirst
+            from agentic_mpc.agent.backends.rules_first import RulesFirst
 
             return RulesFirst(rules, chosen)
         return chosen

@@ -31,6 +31,14 @@ class ToolName(StrEnum):
     SET_REFERENCE_SPEED = "set_reference_speed"
     SET_PREFERRED_STEERING_DIRECTION = "set_preferred_steering_direction"
     CLEAR_PREFERRED_STEERING_DIRECTION = "clear_preferred_steering_direction"
+    CHANGE_LANE = "change_lane"
+    KEEP_LANE = "keep_lane"
+    CHANGE_REFERENCE_SPEED = "change_reference_speed"
+    SET_FOLLOWING_DISTANCE = "set_following_distance"
+    CHANGE_FOLLOWING_DISTANCE = "change_following_distance"
+    CLEAR_FOLLOWING_DISTANCE = "clear_following_distance"
+    OVERTAKE = "overtake"
+    PULL_OVER = "pull_over"
 
 
 def lane_tool_name(lane: str) -> str:

@@ -8,7 +8,9 @@ names the tools use, the speed limit, the handedness) and the initial specificat
 - ``lanes``: from the road edge outwards, each ``{"name", "index", "role", "tool"}``; ``index`` is the lane's
   index as SUMO counts them (0 is the edge lane: the rightmost in right-hand traffic, the leftmost in
   left-hand traffic);
-- ``edge_lane``: where the car pulls over to yield; ``speed_limit_mps`` (and ``_kmh``);
+- ``edge_lane``: where the car pulls over to yield; ``emergency_lane``: the hard shoulder, where the road has
+  one (``pull_over``); ``speed_limit_mps`` (and ``_kmh``); a road with more lanes than the three roles lists
+  every lane (``lane<i>``, driven with ``keep_lane``);
 - ``yield`` / ``resume``: one plain-English sentence each, with the call (``yield_call`` / ``resume_call``);
 - ``summary``: the road in one line.
 """
@@ -40,24 +42,32 @@ def describe_road(
     keep_to, far_side = ("left", "right") if road.lefthand else ("right", "left")
     traffic = f"{keep_to}-hand"
     names = [name for name in _LEFT_TO_RIGHT if name in road.lanes]
+    if road.by_index and len(road.by_index) > len(names):  # more lanes than roles: every lane, by its name
+        names = [road.label(index) for index in road.left_to_right]
+    shoulder = road.label(road.shoulder_index) if road.by_index and road.shoulder_index is not None else None
     from_edge = names if road.lefthand else names[::-1]
     edge = from_edge[0] if from_edge else None
     lanes = []
     for position, name in enumerate(from_edge):
-        index = lane_index(road.lanes[name]) if lane_index is not None else None
-        if name == edge:
+        path = road.lanes.get(name) or road.by_index[int(name.removeprefix("lane"))]
+        index = lane_index(path) if lane_index is not None else None
+        if name == shoulder:
+            role = "emergency lane (hard shoulder): for stopping only; pull_over() drives onto it and stops"
+        elif name == edge:
             role = f"edge lane, next to the {keep_to} edge of the road: traffic keeps to it; pull over here to yield"
         elif position == len(from_edge) - 1:
             role = f"overtaking lane, the farthest from the road edge (on the {far_side})"
         else:
             role = "middle lane"
         lanes.append({"name": name, "index": index if isinstance(index, int) else position, "role": role,
-                      "tool": f"run_{name}_lane"})
+                      "tool": f"run_{name}_lane" if name in road.lanes else f"keep_lane(index={index})"})
     limit = float(road.speed_limit_mps)
     out: dict[str, Any] = {
         "traffic": traffic, "lefthand": bool(road.lefthand), "keep_to": keep_to, "lanes": lanes,
         "edge_lane": edge, "speed_limit_mps": limit, "speed_limit_kmh": round(limit * 3.6, 1),
     }
+    if shoulder is not None:
+        out["emergency_lane"] = shoulder
     if edge is not None:
         yield_call = {"tool": f"run_{edge}_lane", "arguments": {"v_ref": 0.0}}
         out["yield_call"] = yield_call

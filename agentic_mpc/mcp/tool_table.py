@@ -21,7 +21,11 @@ from typing import Annotated, Any, Literal, get_args, get_origin
 
 from pydantic import Field
 
-from agentic_mpc.mcp.protocol import lane_tool_name
+from agentic_mpc.mcp.protocol import ToolName, lane_tool_name
+
+
+class ToolCallError(ValueError):
+    """A tool call the controller refuses; the message says why, for the agent and the transcript."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,6 +50,8 @@ class ToolDefinition:
 
     name: str | None
     method: Callable[..., dict[str, Any]]
+    available: Callable[[Any], bool] | None = None
+    """Whether the road of ``tools`` has what the tool needs (``pull_over``: an emergency lane); None: always."""
 
     @property
     def per_lane(self) -> bool:
@@ -74,11 +80,13 @@ TABLE: list[ToolDefinition] = []
 """Every tool, in the order ``tools/list`` gives them."""
 
 
-def tool(name: str) -> Callable[[Callable[..., dict[str, Any]]], Callable[..., dict[str, Any]]]:
-    """Register a ``ControllerTools`` method as the tool ``name`` (a :class:`ToolName` member)."""
+def tool(name: str, available: Callable[[Any], bool] | None = None
+         ) -> Callable[[Callable[..., dict[str, Any]]], Callable[..., dict[str, Any]]]:
+    """Register a ``ControllerTools`` method as the tool ``name`` (a :class:`ToolName` member), published
+    where ``available(tools)`` holds (default: everywhere)."""
 
     def register(method: Callable[..., dict[str, Any]]) -> Callable[..., dict[str, Any]]:
-        TABLE.append(ToolDefinition(str(name), method))
+        TABLE.append(ToolDefinition(str(name), method, available))
         return method
 
     return register
@@ -101,8 +109,12 @@ def instances(tools: Any) -> list[tuple[str, ToolDefinition, str | None]]:
     the rows whose method it has (a subclass adds its own), lane tools once per lane of the road."""
     lanes = ordered_lanes(tools.road().lanes)
     rows: list[tuple[str, ToolDefinition, str | None]] = []
-    for definition in TABLE:
+    order = [str(name) for name in ToolName]  # the paper's tools first, whichever module registered first
+    for definition in sorted(TABLE, key=lambda d: -1 if d.per_lane else
+                             order.index(d.name) if d.name in order else len(order)):
         if getattr(type(tools), definition.method.__name__, None) is not definition.method:
+            continue
+        if definition.available is not None and not definition.available(tools):
             continue
         if definition.per_lane:
             rows += [(lane_tool_name(lane), definition, lane) for lane in lanes]

@@ -40,7 +40,8 @@ from pydantic import ValidationError
 
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.mcp.protocol import ToolName, lane_tool_name
-from agentic_mpc.mcp.tool_table import Side, SpeedMps, lane_tool, tool
+from agentic_mpc.mcp.maneuvers import ManeuverTools, path_tracking_like, validated
+from agentic_mpc.mcp.tool_table import Side, SpeedMps, ToolCallError, lane_tool, tool
 from agentic_mpc.primitives import (
     PathTracking,
     PreferredSteeringDirection,
@@ -48,7 +49,7 @@ from agentic_mpc.primitives import (
     SpecificationError,
     SpecificationSlot,
 )
-from agentic_mpc.world.lanes import RoadLanes
+from agentic_mpc.world.lanes import RoadLanes, Situation
 
 logger = logging.getLogger(__name__)
 
@@ -56,11 +57,8 @@ PATH_TRACKING = PathTracking.kind
 STEERING_PREFERENCE = PreferredSteeringDirection.kind
 
 LaneSource = Callable[[], RoadLanes | tuple[Mapping[str, LanePath], float]]
+SituationSource = Callable[[], Situation]
 SpecificationChange = Callable[[Specification], Specification]
-
-
-class ToolCallError(ValueError):
-    """A tool call the controller refuses; the message says why, for the agent and the transcript."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,8 +80,9 @@ def attached_summary(specification: Specification) -> list[dict[str, Any]]:
     return specification.describe()
 
 
-class ControllerTools:
-    """The tools over one specification slot and one lane source.
+class ControllerTools(ManeuverTools):
+    """The tools over one specification slot, one lane source and (for the manoeuvre tools of
+    :mod:`agentic_mpc.mcp.maneuvers`) one situation source: the ego's lane, speed and leader now.
 
     ``steering_template`` sets the parameters (form, weight, ...) J3 is attached with; only its direction is
     the agent's to choose. Path tracking keeps the weights of the one it replaces.
@@ -94,9 +93,11 @@ class ControllerTools:
         slot: SpecificationSlot,
         lane_source: LaneSource,
         steering_template: PreferredSteeringDirection | None = None,
+        situation_source: SituationSource | None = None,
     ) -> None:
         self.slot = slot
         self.lane_source = lane_source
+        self.situation_source = situation_source
         self.steering_template = steering_template
         self._pending: list[tuple[float, int, PendingChange]] = []
         self._pending_lock = threading.Lock()
@@ -109,6 +110,12 @@ class ControllerTools:
         if not math.isfinite(road.speed_limit_mps) or road.speed_limit_mps <= 0:
             raise ToolCallError(f"the lane source gave an invalid speed limit {road.speed_limit_mps!r}")
         return road
+
+    def situation(self) -> Situation:
+        """The ego's situation now; a ToolCallError where the tools were given no situation source."""
+        if self.situation_source is None:
+            raise ToolCallError("this tool needs to know the car's lane and the car ahead, which this setup does not tell")
+        return self.situation_source()
 
     def check_speed(self, v_ref: Any, road: RoadLanes | None = None) -> float:
         """``v_ref`` as a float in [0, road speed limit], or a ToolCallError saying what is wrong."""
@@ -137,7 +144,7 @@ class ControllerTools:
             )
 
         def change(spec: Specification) -> Specification:
-            return spec.attach(_path_tracking_like(spec, path=path, lane=lane, v_ref_mps=v))
+            return spec.attach(path_tracking_like(spec, path=path, lane=lane, v_ref_mps=v))
 
         return self._apply(lane_tool_name(lane), {"v_ref": v}, change, apply_at_s)
 
@@ -156,10 +163,10 @@ class ControllerTools:
                 path = road.lanes.get("center")
                 if path is None:
                     raise ToolCallError("no path tracking is attached and the road has no center lane")
-                return spec.attach(_path_tracking_like(spec, path=path, lane="center", v_ref_mps=v))
+                return spec.attach(path_tracking_like(spec, path=path, lane="center", v_ref_mps=v))
             # The lane source may know a fresher path for the same label (the ego moved to another road).
             path = road.lanes.get(current.lane, current.path)
-            return spec.attach(_path_tracking_like(spec, path=path, lane=current.lane, v_ref_mps=v))
+            return spec.attach(path_tracking_like(spec, path=path, lane=current.lane, v_ref_mps=v))
 
         return self._apply(ToolName.SET_REFERENCE_SPEED, {"v_ref": v}, change, apply_at_s)
 
@@ -174,7 +181,7 @@ class ControllerTools:
             template = spec.get(STEERING_PREFERENCE) or self.steering_template
             fields = template.model_dump() if template is not None else {}
             fields["direction"] = direction
-            return spec.attach(_validated(PreferredSteeringDirection, fields))
+            return spec.attach(validated(PreferredSteeringDirection, fields))
 
         return self._apply(ToolName.SET_PREFERRED_STEERING_DIRECTION, {"direction": direction}, change, apply_at_s)
 
@@ -246,26 +253,15 @@ class ControllerTools:
                     continue
                 logger.info("t=%.3f s: applied %s(%s): %s", now_s, pending.tool, pending.arguments, new.summary())
                 applied.append(pending)
+        if self._overtake is not None and self.situation_source is not None:
+            done = self.advance_maneuvers()
+            if done:
+                logger.info("t=%.3f s: overtake %s", now_s, done)
         return applied
 
     def pending(self) -> list[dict[str, Any]]:
         with self._pending_lock:
             return [p.describe() for _, _, p in sorted(self._pending)]
-
-
-def _validated(model: type, fields: dict[str, Any]) -> Any:
-    try:
-        return model.model_validate(fields)
-    except ValidationError as error:
-        raise ToolCallError(f"invalid {model.__name__}: {error.errors(include_url=False)}") from error
-
-
-def _path_tracking_like(spec: Specification, *, path: LanePath, lane: str, v_ref_mps: float) -> PathTracking:
-    """A new J1 with the weights of the attached (or initial) one, on ``path`` at ``v_ref_mps``."""
-    current = spec.get(PATH_TRACKING)
-    fields = current.model_dump() if isinstance(current, PathTracking) else {}
-    fields.update(path=path, lane=lane, v_ref_mps=v_ref_mps)
-    return _validated(PathTracking, fields)
 
 
 def _checked(change: SpecificationChange) -> SpecificationChange:

@@ -10,6 +10,7 @@ from agentic_mpc.primitives.base import (
     Surroundings,
     TrackingReference,
 )
+from agentic_mpc.primitives.following_distance import FollowingDistance
 from agentic_mpc.primitives.mandatory import Mandatory
 from agentic_mpc.primitives.obstacle_avoidance import Circle, ObstacleAvoidance
 from agentic_mpc.primitives.path_tracking import PathTracking
@@ -21,6 +22,7 @@ __all__ = [
     "POOL",
     "Blockage",
     "Circle",
+    "FollowingDistance",
     "Leader",
     "Mandatory",
     "MovingDisc",

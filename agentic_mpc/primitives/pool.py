@@ -5,13 +5,14 @@ from __future__ import annotations
 from typing import Any
 
 from agentic_mpc.primitives.base import Primitive
+from agentic_mpc.primitives.following_distance import FollowingDistance
 from agentic_mpc.primitives.mandatory import Mandatory
 from agentic_mpc.primitives.obstacle_avoidance import ObstacleAvoidance
 from agentic_mpc.primitives.path_tracking import PathTracking
 from agentic_mpc.primitives.steering_preference import PreferredSteeringDirection
 
 POOL: dict[str, type[Primitive]] = {
-    cls.kind: cls for cls in (Mandatory, PathTracking, ObstacleAvoidance, PreferredSteeringDirection)
+    cls.kind: cls for cls in (Mandatory, PathTracking, ObstacleAvoidance, PreferredSteeringDirection, FollowingDistance)
 }
 
 

@@ -41,6 +41,7 @@ from agentic_mpc.vehicle import throttle_for_steady_speed
 from agentic_mpc.world.base import World
 from agentic_mpc.world import ALERT_DISTANCE_M
 from agentic_mpc.world.emergency import EmergencyDetector
+from agentic_mpc.world.lanes import situation_of
 
 logger = logging.getLogger(__name__)
 
@@ -101,7 +102,8 @@ class RunLoop:
         self.recorder = RunRecorder(world, settings.traffic_stride)
         self.slot = SpecificationSlot(specification)
         self.slot.subscribe(self.recorder.specification_changed)
-        self.tools = ControllerTools(self.slot, world.lanes, steering_template)
+        self.tools = ControllerTools(self.slot, world.lanes, steering_template,
+                                     situation_source=lambda: situation_of(world.observation))
         self.server: AgenticMPCServer = build_server(
             self.tools, lambda: world.observation.to_json(),
             **{"lane_index": world.lane_index_of, **(server_options or {})},  # sumo://road: the world's lane indices

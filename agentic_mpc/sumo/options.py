@@ -7,6 +7,10 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 
+SUMO_SEED_MODULUS = 2**31 - 1
+"""SUMO's --seed is a C int: a run's seed is taken modulo this (the same for every seed below it)."""
+
+
 def sumo_command(
     net_file: Path,
     route_files: Sequence[Path],
@@ -23,7 +27,7 @@ def sumo_command(
         "sumo",
         "-n", str(net_file),
         "--step-length", repr(float(step_length_s)),
-        "--seed", str(int(seed)),
+        "--seed", str(int(seed) % SUMO_SEED_MODULUS),  # SUMO reads an int; LaMPilot's seeds are larger
         "--no-step-log", "true",
         "--duration-log.disable", "true",
         # A standing ego would be teleported away after 300 s by default.

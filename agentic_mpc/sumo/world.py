@@ -299,7 +299,11 @@ class SumoWorld:
         """The road's lanes by role and its speed limit (the lowest on the road)."""
         lanes = {role: self.road.lane_paths[index] for role, index in self.road.lane_roles().items()}
         limit = min(self.network.edge(edge_id).getSpeed() for edge_id in self.road.edge_ids)
-        return RoadLanes(lanes, float(limit), self.road.lefthand)
+        first = self.network.edge(self.road.edge_ids[0]).getLanes()
+        # an emergency lane: one SUMO's cars may not drive on (the LaMPilot scenes' hard shoulder)
+        shoulder = next((i for i, lane in enumerate(first) if not lane.allows("passenger")), None)
+        return RoadLanes(lanes, float(limit), self.road.lefthand, tuple(self.road.lane_paths),
+                         tuple(self.road.left_to_right), shoulder)
 
     def lane(self, ref: int | str) -> tuple[str, LanePath]:
         try:

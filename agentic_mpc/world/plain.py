@@ -83,7 +83,9 @@ class PlainWorld:
         return self._step * self.dt_s
 
     def lanes(self) -> RoadLanes:
-        return RoadLanes(dict(self._lanes), self.road.speed_limit_mps, self.road.lefthand)
+        by_index = tuple(sorted(self._lanes.values(), key=lambda path: self.lane_index_of(path)))
+        left_to_right = tuple(self.road.index_of(role) for role in ("left", "center", "right"))
+        return RoadLanes(dict(self._lanes), self.road.speed_limit_mps, self.road.lefthand, by_index, left_to_right)
 
     def lane(self, ref: int | str) -> tuple[str, LanePath]:
         role = ref if isinstance(ref, str) else next((r for r in ROLES if self.road.index_of(r) == ref), None)

@@ -10,8 +10,11 @@ import pytest
 from agentic_mpc.agent import Agent, AgentConfig
 from agentic_mpc.agent.backends.openai import OpenAIBackend, parse_arguments
 from agentic_mpc.agent.settings import OpenAISettings
+from agentic_mpc.mcp.protocol import ToolName
 from tests.agent.scripted_llm import Delay, Raw, ScriptedLLM, calls, text, tool_call
 
+PAPER_ROAD_TOOLS = ["run_center_lane", "run_left_lane", "run_right_lane",
+                    *(str(name) for name in ToolName if name != ToolName.PULL_OVER)]  # no emergency lane there
 PAPER_2A = "An ambulance is coming behind us. We'd better let them pass."
 
 
@@ -29,10 +32,7 @@ def test_a_well_behaved_model_gives_validated_calls_and_sees_their_results(loop,
     first, second = llm.requests
     assert first["model"] == "granite-test" and first["tool_choice"] == "auto"
     functions = {t["function"]["name"]: t["function"] for t in first["tools"]}
-    assert set(functions) == {
-        "run_center_lane", "run_left_lane", "run_right_lane", "set_reference_speed",
-        "set_preferred_steering_direction", "clear_preferred_steering_direction",
-    }
+    assert set(functions) == set(PAPER_ROAD_TOOLS)
     v_ref = functions["run_left_lane"]["parameters"]["properties"]["v_ref"]
     assert (v_ref["minimum"], v_ref["maximum"]) == (0.0, 25.0) and "title" not in v_ref
     assert [m["role"] for m in first["messages"]] == ["system", "user"]
@@ -75,9 +75,7 @@ def test_every_malformed_answer_becomes_a_tool_error_for_the_model_and_changes_n
     tool_messages = [m for m in last_request if m["role"] == "tool"]
     assert len(tool_messages) == len(MALFORMED)
     assert all(m["content"].startswith("Error: ") for m in tool_messages)
-    assert tool_messages[0]["content"].endswith("available tools: clear_preferred_steering_direction, run_center_lane, "
-                                                "run_left_lane, run_right_lane, set_preferred_steering_direction, "
-                                                "set_reference_speed")
+    assert tool_messages[0]["content"].endswith(f"available tools: {', '.join(sorted(PAPER_ROAD_TOOLS))}")
     # malformed arguments are echoed as {} so strict servers accept the history
     echoed = [m for m in last_request if m["role"] == "assistant"][1]["tool_calls"][0]["function"]["arguments"]
     assert echoed == "{}"
@@ -230,7 +228,7 @@ def test_json_schema_mode_through_the_agent(loop, server):
     first, second = llm.requests
     assert "tools" not in first and first["response_format"]["type"] == "json_schema"
     names = [o["properties"]["name"]["const"] for o in first["response_format"]["json_schema"]["schema"]["oneOf"][:-1]]
-    assert "run_left_lane" in names and len(names) == 6
+    assert "run_left_lane" in names and len(names) == len(PAPER_ROAD_TOOLS)
     assert [m["role"] for m in second["messages"]] == ["system", "user", "assistant", "user"]
 
 

@@ -34,6 +34,21 @@ def test_the_situation_in_a_few_lines_from_the_resources_json():
     assert describe_situation(None, None, None) is None  # a server without the resources
 
 
+def test_the_car_ahead_and_the_lanes_beside_us_for_the_manoeuvre_tools():
+    ego = {"time_s": 3.1, "ego": {"speed_mps": 31.3, "lane_role": "center", "lane_index": 1}}
+    traffic = {"vehicles": [
+        {"id": "car2", "relation": "ahead", "relative_lane": 0, "gap_m": 42.4, "speed_mps": 27.1},
+        {"id": "car5", "relation": "ahead", "relative_lane": 0, "gap_m": 140.0, "speed_mps": 20.0},
+        {"id": "car1", "relation": "ahead", "relative_lane": 1, "gap_m": 10.0, "speed_mps": 30.0}]}
+    road = {"lefthand": False, "emergency_lane": "right", "lanes": [  # from the road edge outwards
+        {"name": "right", "index": 0}, {"name": "center", "index": 1}, {"name": "left", "index": 2}]}
+    lines = describe_situation(ego, None, None, traffic, road).splitlines()
+    assert lines[2] == "- lanes to our left: 1, to our right: 1 (the right-most of them the emergency lane)"
+    assert lines[3] == "- car ahead in our lane: 'car2' 42 m ahead (bumper to bumper) at 27.1 m/s"
+    lonely = describe_situation(ego, None, None, {"vehicles": traffic["vehicles"][1:]}, None)
+    assert "- no car ahead in our lane within 100 m" in lonely
+
+
 def test_a_language_model_gets_the_situation_read_over_mcp_with_the_message(loop, server):
     for _ in range(50):  # 2 s of driving: the situation has a time and a speed
         loop.step()

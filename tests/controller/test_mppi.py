@@ -8,6 +8,7 @@ from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import (
     Blockage,
     Circle,
+    FollowingDistance,
     Leader,
     Mandatory,
     MovingDisc,
@@ -36,6 +37,7 @@ def specifications():
         "J0 time gap 2 s, 5 m": Specification.of(Mandatory(time_gap_s=2.0, standstill_gap_m=5.0, time_gap_weight=3.0), j1),
         "J0 time gap off": Specification.of(Mandatory(time_gap_weight=0.0), j1),
         "J1 lateral weight": Specification.of(j1.model_copy(update={"lateral_weight": 6.0}), j2),
+        "J1+J4 following distance": Specification.of(j1, FollowingDistance(gap_m=8.0)),
     }
 
 

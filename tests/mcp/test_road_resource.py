@@ -107,3 +107,16 @@ def test_the_road_over_stdio_from_a_left_hand_scenario():
     road = asyncio.run(asyncio.wait_for(go(), 60))
     assert road["traffic"] == "left-hand" and road["edge_lane"] == "left"
     assert road["yield_call"] == {"tool": "run_left_lane", "arguments": {"v_ref": 0.0}}
+
+
+def test_a_road_with_more_lanes_than_roles_lists_every_lane_and_its_emergency_lane():
+    from agentic_mpc.geometry import LanePath
+
+    paths = tuple(LanePath.straight((0.0, 4.0 * i), (100.0, 4.0 * i)) for i in range(4))  # index 0: the right edge
+    roles = {"right": paths[0], "left": paths[3]}
+    road = RoadLanes(roles, 31.29, False, paths, (3, 2, 1, 0), 0)
+    described = describe_road(road, lane_index=lambda path: paths.index(path))
+    assert [lane["name"] for lane in described["lanes"]] == ["right", "lane1", "lane2", "left"]
+    assert [lane["tool"] for lane in described["lanes"]] == [
+        "run_right_lane", "keep_lane(index=1)", "keep_lane(index=2)", "run_left_lane"]
+    assert described["emergency_lane"] == "right" and "pull_over()" in described["lanes"][0]["role"]

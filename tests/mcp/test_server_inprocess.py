@@ -28,6 +28,13 @@ TOOL_NAMES = {
     "set_reference_speed",
     "set_preferred_steering_direction",
     "clear_preferred_steering_direction",
+    "change_lane",
+    "keep_lane",
+    "change_reference_speed",
+    "set_following_distance",
+    "change_following_distance",
+    "clear_following_distance",
+    "overtake",
 }
 RESOURCES = {
     "sumo://ego",

@@ -55,7 +55,9 @@ def test_stdio_client_lists_reads_calls_and_is_refused_out_of_range():
     tools, resources, templates, first, second, before, refused, after_refusal, accepted, after, ego = run(go())
     assert tools == sorted([
         "clear_preferred_steering_direction", "run_center_lane", "run_left_lane", "run_right_lane",
-        "set_preferred_steering_direction", "set_reference_speed",
+        "set_preferred_steering_direction", "set_reference_speed", "change_lane", "keep_lane",
+        "change_reference_speed", "set_following_distance", "change_following_distance", "clear_following_distance",
+        "overtake",
     ])
     assert "sumo://traffic" in resources and "mpc://specification" in resources and len(resources) == 8
     assert templates == ["sumo://vehicle/{vehicle_id}"]

@@ -82,4 +82,5 @@ def test_route_files_define_the_types_the_scenarios_use():
         params = {p.get("key"): p.get("value") for p in ambulance.iter("param")}
         assert params.get("has.bluelight.device") == "true", route_file.name
         assert types["ego"].get("speedDev") == "0"
-        assert [r.get("id") for r in root.iter("route")] == ["road"]
+        shared = route_file.name == "lampilot.rou.xml"  # serves five nets: the world makes the route from the road
+        assert [r.get("id") for r in root.iter("route")] == ([] if shared else ["road"]), route_file.name

@@ -53,6 +53,7 @@ from agentic_mpc.agent.backends.rules_lexicon import (
     YIELD_ROLLING_MPS,
     Side,
 )
+from agentic_mpc.agent.backends.rules_maneuvers import maneuver_call
 from agentic_mpc.agent.backends.rules_parsing import (
     Interpretation,
     SideMention,
@@ -143,6 +144,12 @@ class RulesBackend:
         """The tool calls for one message, given the initial and current driving state."""
         meaning = interpret(text)
         plan = Plan()
+        if not meaning.question and not meaning.conditional:
+            call, note = maneuver_call(text, tools)
+            if call is not None or note is not None:
+                plan.calls += [call] if call is not None else []
+                plan.notes += [note] if note is not None else []
+                return plan
         if meaning.question:
             plan.notes.append("That is a question; I answer it without changing anything.")
             return plan

@@ -93,12 +93,13 @@ _KEEP_ROLLING = re.compile(
 _STOP = re.compile(r"\b(?:stop|halt|standstill|come to a (?:full )?stop|pull over|park|freeze)\b(?!\s+\w+ing\b)")
 _SLOW = re.compile(
     r"\b(?:slow (?:down|it down|up)|slower|(?:go|drive|move|proceed|take it) (?:more )?slow(?:ly)?|slowly|"
-    r"decelerat\w*|reduce (?:the |your |our )?speed|ease (?:off|up)|take it easy|too fast|brake|not so fast|"
-    r"less fast|(?:lower|drop|cut) (?:the |your |our )?speed)\b"
+    r"decelerat\w*|ease (?:off|up)|take it easy|too fast|brake|not so fast|less fast|"
+    r"(?:reduce|lower|drop|cut|decrease|lessen) (?:the |your |our |current |acc |cruise )*speed)\b"
 )
 _FAST = re.compile(
     r"(?:\b(?:speed (?:it )?up|(?:go|drive|move|get|bit|little|lot|much|be|way) faster|accelerat\w*|hurry(?: up)?|"
-    r"pick up (?:the )?(?:pace|speed)|(?:increase|raise) (?:the |your |our )?speed|step on it|go quicker|"
+    r"pick up (?:the )?(?:pace|speed)|(?:increase|raise|boost|enhance) (?:the |your |our |current |acc |cruise )*speed|"
+    r"step on it|go quicker|"
     r"too slow|get a move on)\b|^faster\b)"
 )
 _CAP = re.compile(r"\b(?:at most|no (?:more|faster) than|not (?:more|faster) than|max(?:imum)?(?: of)?|below|under|"

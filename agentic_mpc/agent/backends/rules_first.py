@@ -1,4 +1,5 @@
-"""Rules first, a model for the rest: ``agentic-mpc eval-agent --rules-first``.
+"""Rules first, a model for the rest: a language-model backend's ``rules_first: true`` (``--agent
+rules_first=true``; ``agentic-mpc eval-agent --rules-first``).
 
 The rules backend answers every message it understands (it plans a call, or it recognises a question, a
 condition, an emergency vehicle it need not act on, ...); a message it does not understand at all (small

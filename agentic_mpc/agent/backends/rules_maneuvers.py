@@ -1,0 +1,91 @@
+"""The offline rules backend's manoeuvres (LaMPilot-Bench's commands): a following distance, overtaking, and
+pulling over onto an emergency lane. Each maps to its tool of :mod:`agentic_mpc.mcp.maneuvers`, and only
+where the server offers that tool; anything else goes to the general grammar (:mod:`rules_parsing`).
+
+- following distance: "gap", "following distance" or "distance to the car ahead" with a length in metres
+  (m, meters, metres, feet): absolute with "to X" / "of X" ("decrease the gap to 15 meters", "establish a
+  following distance of 15 meters", "keep a 30 m gap"), relative with "by X" or "X meters closer / shorter / less / more /
+  higher / longer / further" (the sign from decrease/lessen/shorten/reduce/closer/less or
+  increase/expand/extend/more/higher);
+- overtaking: overtake / pass / go past / go around / surpass / get ahead of the car, vehicle or lead vehicle
+  in front (ahead); the side from "left"/"right" ("using the left lane"); "and come back" / "return" /
+  "then merge back" returns to the lane afterwards, otherwise the passing lane is kept. Obstacles are not
+  cars to overtake: "go around obstacles on the left" stays a steering preference;
+- pulling over onto the emergency lane / hard shoulder / shoulder and stopping ("park", "standstill").
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from agentic_mpc.mcp.protocol import ToolName
+
+_LENGTH = r"(\d+(?:\.\d+)?)\s*(?:m\b|meters?\b|metres?\b|feet\b|ft\b)"
+_GAP_WORDS = re.compile(r"\b(?:gap|following distance|headway|distance (?:to|from|behind) the (?:car|vehicle)\b)")
+_ABSOLUTE = re.compile(r"\b(?:to|of|at)\s+(?:be\s+)?(?:about\s+)?" + _LENGTH)
+_LENGTH_FIRST = re.compile(_LENGTH + r"\s+(?:gap|following distance|headway|distance)\b")  # "keep a 30 m gap"
+_BY = re.compile(r"\bby\s+(?:about\s+)?" + _LENGTH)
+_RELATIVE_WORD = re.compile(_LENGTH + r"\s+(closer|shorter|less|nearer|more|higher|longer|further|farther|larger|bigger)\b")
+_SHORTER = re.compile(r"\b(?:decrease|lessen|shorten|reduce|lower|cut|tighten|close up|closer|less|smaller|nearer)\b")
+_LONGER = re.compile(r"\b(?:increase|expand|extend|lengthen|widen|open(?: up)?|grow|more|higher|larger|bigger|further|"
+                     r"farther|longer)\b")
+_FEET_TO_M = 0.3048
+
+_OVERTAKE = re.compile(
+    r"\b(?:overtake|overtaking|pass|go past|get past|drive past|surpass|go around|get around|get ahead of|"
+    r"move past|go by)\b")
+_CAR_AHEAD = re.compile(
+    r"\b(?:car|vehicle|truck|driver)s?\b(?:\s+(?:in front|ahead))?|\b(?:lead|leading|front)\s+(?:car|vehicle)\b|"
+    r"\b(?:the one|someone) (?:in front|ahead)\b")
+_OBSTACLE = re.compile(r"\b(?:obstacles?|stopped|broken.down|parked|blockage)\b")
+_RETURN = re.compile(r"\b(?:come back|return|go back|merge back|get back|back (?:in)?to (?:our|my|the|this) lane)\b")
+_SIDE = re.compile(r"\b(left|right)\b")
+
+_SHOULDER = re.compile(r"\b(?:emergency lane|hard shoulder|shoulder|breakdown lane)\b")
+
+
+def _metres(match: re.Match[str]) -> float:
+    value = float(match.group(1))
+    return value * _FEET_TO_M if re.search(r"feet|ft", match.group(0)) else value
+
+
+def maneuver_call(text: str, tools: dict[str, Any]) -> tuple[tuple[str, dict[str, Any]] | None, str | None]:
+    """(the tool call, a note) for a message that asks for one of these manoeuvres; (None, None) otherwise."""
+    s = " ".join(text.lower().replace("-", " ").split())
+    if _GAP_WORDS.search(s) and ToolName.SET_FOLLOWING_DISTANCE in tools:
+        return _following_distance(s)
+    if _SHOULDER.search(s) and ToolName.PULL_OVER in tools:
+        return (str(ToolName.PULL_OVER), {}), "Pulling over onto the emergency lane and stopping."
+    if _OVERTAKE.search(s) and _CAR_AHEAD.search(s) and not _OBSTACLE.search(s) and ToolName.OVERTAKE in tools:
+        sides = _SIDE.findall(s)
+        if len(set(sides)) != 1:
+            return None, "On which side should I overtake: left or right?"
+        afterwards = "return" if _RETURN.search(s) else "keep"
+        return (str(ToolName.OVERTAKE), {"side": sides[0], "afterwards": afterwards}), (
+            f"Overtaking the car ahead on the {sides[0]}"
+            + (", then back to this lane." if afterwards == "return" else ", then staying in that lane."))
+    return None, None
+
+
+def _following_distance(s: str) -> tuple[tuple[str, dict[str, Any]] | None, str | None]:
+    relative = _RELATIVE_WORD.search(s)
+    by = _BY.search(s)
+    absolute = _ABSOLUTE.search(s) or _LENGTH_FIRST.search(s)
+    if relative is not None or by is not None:
+        match = relative or by
+        amount = _metres(match)
+        longer = bool(_LONGER.search(s))
+        shorter = bool(_SHORTER.search(s))
+        if relative is not None:
+            longer = relative.group(2) in ("more", "higher", "longer", "further", "farther", "larger", "bigger")
+            shorter = not longer
+        if longer == shorter:
+            return None, "Should the gap grow or shrink? Please say more or less."
+        change = amount if longer else -amount
+        verb = "Widening" if longer else "Closing"
+        return (str(ToolName.CHANGE_FOLLOWING_DISTANCE), {"change": change}), f"{verb} the gap by {amount:g} m."
+    if absolute is not None:
+        gap = _metres(absolute)
+        return (str(ToolName.SET_FOLLOWING_DISTANCE), {"gap": gap}), f"Keeping a {gap:g} m gap to the car ahead."
+    return None, "Please give the following distance in metres."
