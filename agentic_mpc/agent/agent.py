@@ -49,6 +49,7 @@ import logging
 import math
 import threading
 from collections.abc import Callable
+from contextlib import AsyncExitStack
 from concurrent.futures import Future
 from dataclasses import replace
 from functools import partial
@@ -59,6 +60,7 @@ from mcp import Client
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
 from agentic_mpc.agent.config import AgentConfig, AgentError, WatchRequest, check_message, root_cause
 from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resource
+from agentic_mpc.agent.hosting import ServerHost, target_of
 from agentic_mpc.agent.messages import Message, MessageHistory, Source
 from agentic_mpc.agent.prompt import restore_note, specification_changes, system_prompt
 from agentic_mpc.agent.report import StepReport
@@ -85,10 +87,13 @@ class Agent:
         server: Any,
         config: AgentConfig | None = None,
         sim_clock: Callable[[], float] | None = None,
+        other_servers: dict[str, Any] | None = None,
     ) -> None:
         self.backend = backend
         self.server = getattr(server, "mcp_server", server)
         self.config = config or AgentConfig()
+        self.other_servers = {**(other_servers or {}), **{e.name: target_of(e) for e in self.config.mcp_servers}}
+        """Servers besides the controller's (name -> what ``mcp.Client`` connects to): agent/hosting.py."""
         self.sim_clock = sim_clock
         self.history = MessageHistory()
         self.transcript = Transcript(self.config.transcript_path)
@@ -102,6 +107,7 @@ class Agent:
         self._ready = threading.Event()
         self._startup_error: BaseException | None = None
         self._client: Client | None = None
+        self._host: ServerHost | None = None
         self._initial: dict[str, Any] | None = None  # mpc://specification/initial, read at the start
         self._closed = False
 
@@ -152,8 +158,9 @@ class Agent:
         self._queue = asyncio.Queue()
         try:
             target = mcp_target(self.server, self.config.headers, self.config.bearer_token_env)
-            async with Client(target, cache=None, client_info=CLIENT_INFO) as client:
-                self._client = client
+            async with Client(target, cache=None, client_info=CLIENT_INFO) as client, AsyncExitStack() as stack:
+                self._client, self._host = client, ServerHost(client)
+                await self._host.connect(stack, self.other_servers)
                 await self._introduce(client)
                 self._ready.set()
                 listening = (asyncio.create_task(self._listen(client)) if self.config.observation_messages
@@ -201,6 +208,9 @@ class Agent:
         self.tools = tuple(ToolSpec(t.name, t.description or "", dict(t.input_schema)) for t in listed.tools)
         if not self.tools:
             raise AgentError("the MCP server lists no tools")
+        self.tools += self._host.tools  # the other servers' (namespaced); those that failed are said here
+        for reason in self._host.errors:
+            self.transcript.record("server_error", tau=None, sim_time_s=self._now(None), error=reason)
         initial = await read_json_resource(client, INITIAL_SPECIFICATION_URI)  # None: the agent cannot restore
         self._initial = initial
         road = await read_json_resource(client, ROAD_URI, missing=logging.INFO)  # None: an older server
@@ -329,7 +339,7 @@ class Agent:
                     limit = self.config.max_tool_calls_per_round
                     result = self._runner.refuse(call, f"too many tool calls in one answer (at most {limit})", now)
                 else:
-                    result = await self._runner.execute(self._client, self.tools, call, apply_at,
+                    result = await self._runner.execute(self._host, self.tools, call, apply_at,
                                                         agent_message.tau, now)
                 stamped = self._append(result)
                 entry: dict[str, Any] = {"tool": call.name, "arguments": call.arguments, "ok": not stamped.is_error}

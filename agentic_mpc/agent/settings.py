@@ -13,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import Field, TypeAdapter, field_validator
+from pydantic import Field, TypeAdapter, field_validator, model_validator
 
 from agentic_mpc.frozen_config import FrozenConfig
 from agentic_mpc.world import ALERT_DISTANCE_M
@@ -22,8 +22,30 @@ ToolMode = Literal["native", "json_schema"]
 Side = Literal["left", "right"]
 
 
+class McpServerSettings(FrozenConfig):
+    """Another MCP server the agent connects to besides the controller's (knowledge, a document store, ...)."""
+
+    name: str = Field(..., pattern=r"^[a-z][a-z0-9_]{0,30}$", description="its tools are named <name>__<tool>")
+    command: tuple[str, ...] | None = Field(None, min_length=1, description="start it: the command and arguments (stdio)")
+    url: str | None = Field(None, pattern=r"^https?://", description="or reach it: its streamable HTTP URL")
+    bearer_token_env: str | None = Field(None, description="HTTP: the environment variable holding its token")
+
+    @model_validator(mode="after")
+    def _one_way_to_reach_it(self) -> McpServerSettings:
+        if (self.command is None) == (self.url is None):
+            raise ValueError("give exactly one of command (stdio) or url (HTTP)")
+        if "__" in self.name:
+            raise ValueError("a server name may not contain '__' (it separates the server from its tool)")
+        return self
+
+
 class AgentRunSettings(FrozenConfig):
     """What every agent has, whatever answers it."""
+
+    mcp_servers: tuple[McpServerSettings, ...] = Field(
+        (), description="other MCP servers the agent is a host of (their tools namespaced, read-only to the car)")
+    knowledge: bool = Field(False, description="also connect the shipped knowledge server (traffic rules, the "
+                                               "car's manual: docs/knowledge.md), in process, as 'knowledge'")
 
     mode: Literal["lockstep", "realtime"] = Field(
         "lockstep", description="lockstep: reproducible, tool calls take effect latency_s (sim time) after the "

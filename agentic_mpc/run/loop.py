@@ -121,7 +121,14 @@ class RunLoop:
             from agentic_mpc.agent.agent import Agent
 
             config = agent.config  # observation messages: the agent watches sumo://emergency-vehicles itself
-            self.agent = Agent(agent.backend, self.server, config, sim_clock=lambda: world.time_s).start()
+            others = {}
+            if config.knowledge:  # the shipped knowledge server, in process (the agent knows it as a client)
+                from agentic_mpc.knowledge.server import build_knowledge_server
+                from agentic_mpc.knowledge.store import KnowledgeBase
+
+                others["knowledge"] = build_knowledge_server(KnowledgeBase())
+            self.agent = Agent(agent.backend, self.server, config, sim_clock=lambda: world.time_s,
+                               other_servers=others).start()
             self._observation_messages = config.observation_messages
         self._lockstep = self.agent is not None and self.agent.config.mode == "lockstep"
 
