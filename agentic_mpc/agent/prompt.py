@@ -68,6 +68,10 @@ def describe_road(road: dict[str, Any] | None) -> list[str]:
     if edge := _text(road.get("edge_lane")):
         lines.append(f"The edge lane is the {edge} lane.")
     lines += [text for key in ("yield", "resume") if (text := _text(road.get(key)))]
+    if jurisdiction := _text(road.get("jurisdiction")):
+        lines.append(f"Jurisdiction: {jurisdiction}: its traffic rules apply (how to make way for an emergency "
+                     "vehicle, speed limits); look them up with a knowledge search tool where there is one and "
+                     "cite the document you follow.")
     return lines
 
 

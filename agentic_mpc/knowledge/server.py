@@ -34,8 +34,12 @@ def build_knowledge_server(base: KnowledgeBase, name: str = "agentic-mpc-knowled
         "sources to cite."), annotations=ToolAnnotations(readOnlyHint=True, destructiveHint=False),
         structured_output=False)
     def search_knowledge(query: Annotated[str, Field(min_length=1, max_length=500, description="what to look up")],
-                         k: Annotated[int, Field(ge=1, le=10, description="how many passages")] = 3) -> str:
-        found = base.search(query, k)
+                         k: Annotated[int, Field(ge=1, le=10, description="how many passages")] = 3,
+                         jurisdiction: Annotated[str | None, Field(
+                             pattern=r"^[A-Za-z]{2}(-[A-Za-z0-9]{1,3})?$",
+                             description="only this place's documents (JP, DE, UK, US-CA) and general ones")] = None,
+                         ) -> str:
+        found = base.search(query, k, jurisdiction)
         return json.dumps({"query": query, "passages": [
             {"document": p.doc_id, "uri": f"knowledge://{p.doc_id}", "title": p.title, "section": p.section,
              "text": p.text[:MAX_PASSAGE_CHARS], "sources": list(p.sources), "cite": p.citation(),

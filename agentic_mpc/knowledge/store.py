@@ -128,14 +128,18 @@ class KnowledgeBase:
                 self._db.execute("INSERT INTO passages VALUES (?, ?, ?, ?)",
                                  (document.doc_id, document.title, section, text))
 
-    def search(self, query: str, k: int = 3) -> list[Passage]:
-        """The ``k`` best passages for ``query`` (any words: each is matched, ranked by BM25)."""
+    def search(self, query: str, k: int = 3, jurisdiction: str | None = None) -> list[Passage]:
+        """The ``k`` best passages for ``query`` (any words: each is matched, ranked by BM25); with a
+        ``jurisdiction`` only its documents and those for any place."""
         words = [w.lower() for w in _WORD.findall(query)]
         if not words:
             return []
         expression = " OR ".join(f'"{w}"' for w in dict.fromkeys(words))
         rows = self._db.execute(
             "SELECT doc_id, title, section, body, bm25(passages, 0.0, 2.0, 4.0, 1.0) AS score FROM passages "
-            "WHERE passages MATCH ? ORDER BY score LIMIT ?", (expression, int(k))).fetchall()
-        return [Passage(doc_id, title, section, body, self.documents[doc_id].sources, score)
-                for doc_id, title, section, body, score in rows]
+            "WHERE passages MATCH ? ORDER BY score", (expression,)).fetchall()
+        wanted = None if jurisdiction is None else {jurisdiction.upper(), "ANY"}
+        found = [Passage(doc_id, title, section, body, self.documents[doc_id].sources, score)
+                 for doc_id, title, section, body, score in rows
+                 if wanted is None or self.documents[doc_id].jurisdiction.upper() in wanted]
+        return found[:int(k)]

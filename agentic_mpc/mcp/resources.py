@@ -46,7 +46,7 @@ _LISTS = {"traffic", "emergency_vehicles", "obstacles", "collisions"}
 
 
 def register_resources(server: MCPServer, tools: ControllerTools, latest_observation: ObservationSource,
-                       lane_index: LaneIndex | None = None) -> None:
+                       lane_index: LaneIndex | None = None, jurisdiction: str | None = None) -> None:
     """Register every resource on ``server``."""
     slot = tools.slot
     for uri, name, description, keys in OBSERVATION_SLICES:
@@ -69,8 +69,9 @@ def register_resources(server: MCPServer, tools: ControllerTools, latest_observa
                      "edge lane, speed limit, what yielding and resuming mean.", mime_type="application/json")
     def road() -> str:
         tracking = slot.initial.get("path_tracking")
-        return to_json(describe_road(tools.road(), getattr(tracking, "lane", None),
-                                     getattr(tracking, "v_ref_mps", None), lane_index))
+        described = describe_road(tools.road(), getattr(tracking, "lane", None),
+                                  getattr(tracking, "v_ref_mps", None), lane_index)
+        return to_json({**described, "jurisdiction": jurisdiction} if jurisdiction else described)
 
     @server.resource(SPECIFICATION_URI, name="specification",
                      description="The control specification attached now, its version and pending changes.",

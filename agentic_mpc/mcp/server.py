@@ -159,7 +159,8 @@ class AgenticMPCServer:
     :attr:`mcp_server` (also ``server``) is the SDK's ``MCPServer``: hand it to ``mcp.Client`` or run it (the
     agent accepts this object itself and connects to that attribute). Call :meth:`publish_observation` after
     every simulation step (any thread) to notify listening clients. ``lane_index`` (the world's
-    ``lane_index_of``) gives ``sumo://road`` the world's lane indices.
+    ``lane_index_of``) gives ``sumo://road`` the world's lane indices, ``jurisdiction`` (the scenario's: ``JP``,
+    ``DE``, ...) whose traffic rules apply there.
     """
 
     def __init__(
@@ -172,6 +173,7 @@ class AgenticMPCServer:
         publish_interval_s: float = 0.2,
         on_tool_call: ToolCallHook | None = None,
         lane_index: LaneIndex | None = None,
+        jurisdiction: str | None = None,
     ) -> None:
         self.tools = tools
         self.lane_index = lane_index
@@ -191,7 +193,7 @@ class AgenticMPCServer:
             log_level="WARNING",
         )
         self.server.on_tool_call = on_tool_call
-        register_resources(self.server, tools, latest_observation, lane_index)
+        register_resources(self.server, tools, latest_observation, lane_index, jurisdiction)
         tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
 
     @property

@@ -53,7 +53,9 @@ def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True,
                      alert_distance_m=settings.alert_distance_m,
                      plan_stride=scenario.outputs.plan_stride if scenario.outputs.replay else 0),
         controller=scenario.controller, seed=scenario.seed, messages=scenario.messages, agent=agent,
-        steering_template=steering_template(scenario.specification), server_options=server_options,
+        steering_template=steering_template(scenario.specification),
+        server_options={**({"jurisdiction": scenario.jurisdiction} if scenario.jurisdiction else {}),
+                        **(server_options or {})},
     )
 
 

@@ -106,6 +106,9 @@ class Scenario(FrozenConfig):
     duration_s: float = Field(..., gt=0, le=3600)
     stop_at_goal: bool = Field(True, description="end the run when the ego reaches the simulation's goal")
     seed: int = Field(0, ge=0)
+    jurisdiction: str | None = Field(
+        None, pattern=r"^[A-Z]{2}(-[A-Z0-9]{1,3})?$", description="whose traffic rules apply (JP, DE, UK, US-CA, ...): "
+        "sumo://road says it; an agent with the knowledge server looks the rules up (docs/knowledge.md)")
     outputs: OutputSettings = OutputSettings()
     variant: str = Field("base", description="set by the loader")
 

@@ -81,3 +81,9 @@ def test_the_command_refuses_a_missing_folder_with_exit_2(tmp_path, capsys):
 
     assert main(["knowledge-server", "--folder", str(tmp_path / "nowhere")]) == 2
     assert "nowhere: not a directory" in capsys.readouterr().err
+
+
+def test_a_search_for_one_jurisdiction_keeps_its_documents_and_the_general_ones(base):
+    found = base.search("speed limit motorway car length", 10, "DE")
+    assert found and {p.doc_id for p in found} <= {"de-traffic-rules", "nissan-patrol-manual"}
+    assert "nissan-patrol-manual" in {p.doc_id for p in base.search("how long is the car", 3, "JP")}

@@ -42,6 +42,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from agentic_mpc.agent.backends import rules_knowledge as knowledge
 from agentic_mpc.agent.backends import rules_speeds as speeds
 from agentic_mpc.agent.backends.base import BackendReply, ToolSpec
 from agentic_mpc.agent.backends.rules_lexicon import (
@@ -119,11 +120,21 @@ class RulesBackend:
             return BackendReply("Nothing to answer.")
         last = history[-1]
         initial, current = driving_states(history)
+        if last.role == "tool" and last.name == knowledge.SEARCH_TOOL and not last.is_error:
+            asked = next((m for m in reversed(history) if m.role == "user"), None)
+            if asked is not None:  # the rule looked up: now the call it calls for
+                plan = self.plan(asked.content, initial, current, {t.name: t for t in tools},
+                                 jurisdiction=knowledge.jurisdiction_of(history), found=last.content)
+                return self._reply(plan, current)
         if last.role == "tool":
             return BackendReply(self._summarise_results(history, current))
         if last.role != "user":
             return BackendReply("Waiting for a message.")
-        plan = self.plan(last.content, initial, current, {t.name: t for t in tools})
+        plan = self.plan(last.content, initial, current, {t.name: t for t in tools},
+                         jurisdiction=knowledge.jurisdiction_of(history))
+        return self._reply(plan, current)
+
+    def _reply(self, plan: Plan, current: DrivingState) -> BackendReply:
         calls = tuple(self._call(name, args) for name, args in plan.calls)
         if calls:
             described = ", ".join(
@@ -139,11 +150,20 @@ class RulesBackend:
         return ToolCall.of(f"rules-{self._counter}", name, arguments)
 
     def plan(
-        self, text: str, initial: DrivingState, current: DrivingState, tools: dict[str, ToolSpec]
+        self, text: str, initial: DrivingState, current: DrivingState, tools: dict[str, ToolSpec],
+        jurisdiction: str | None = None, found: str | None = None,
     ) -> Plan:
-        """The tool calls for one message, given the initial and current driving state."""
+        """The tool calls for one message, given the initial and current driving state; with a
+        ``jurisdiction`` and a knowledge search tool a yield first looks the rule up (``found``: its result)."""
         meaning = interpret(text)
         plan = Plan()
+        looked_up = None
+        if meaning.emergency == "yield" and jurisdiction and knowledge.SEARCH_TOOL in tools:
+            if found is None:
+                plan.calls.append(knowledge.search_call(jurisdiction))
+                plan.notes.append(f"Looking up how to make way for an emergency vehicle in {jurisdiction}.")
+                return plan
+            looked_up = knowledge.yield_rule(found, jurisdiction)
         if not meaning.question and not meaning.conditional:
             call, note = maneuver_call(text, tools)
             if call is not None or note is not None:
@@ -177,6 +197,11 @@ class RulesBackend:
             else:
                 v_yield = 0.0
             lane_call = (side or self.yield_lane, v_yield)
+            if looked_up is not None and side is None:  # the rule found decides where, and whether to stop
+                how, cite = looked_up
+                lane, stop = knowledge.yield_lane(how, current.lane)
+                lane_call = (lane, v_yield if stop else min(YIELD_ROLLING_MPS, current.v_ref_mps or YIELD_ROLLING_MPS))
+                plan.notes.append(f"Following {cite}.")
             plan.notes.append("Making way for the emergency vehicle." if meaning.emergency else "Pulling over.")
             if rolling and explicit_speed is None:
                 plan.notes.append("Keeping a crawl in the yield lane instead of stopping.")

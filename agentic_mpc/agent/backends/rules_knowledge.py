@@ -1,0 +1,69 @@
+"""The rules backend looks up how to make way for an emergency vehicle where the road names a jurisdiction
+and a knowledge search tool is offered (``knowledge: true``), instead of having it written in.
+
+A yield then takes two rounds: the search (``knowledge__search_knowledge``), then the call the passage
+found calls for, with the passage cited in the reply:
+
+- a rescue lane between the left-most lane and the next (Germany): from the left-most lane keep to it, from
+  any other move to the lane on the right; slow to a crawl (the rescue lane is formed at walking pace);
+- pulling over to the left or the right edge and stopping (Japan, the UK; California).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Sequence
+from typing import Any
+
+from agentic_mpc.agent.messages import Message
+
+SEARCH_TOOL = "knowledge__search_knowledge"
+YIELD_QUERY = "making way for an emergency vehicle {place}"
+PLACES = {"JP": "Japan", "DE": "Germany", "UK": "United Kingdom", "GB": "United Kingdom", "US-CA": "California"}
+
+
+def jurisdiction_of(history: Sequence[Message]) -> str | None:
+    """The road's jurisdiction as the system message recorded ``sumo://road`` (None if it names none)."""
+    for message in history:
+        if message.role == "system" and message.data:
+            road = message.data.get("road") or {}
+            value = road.get("jurisdiction")
+            return value if isinstance(value, str) and value else None
+    return None
+
+
+def search_call(jurisdiction: str) -> tuple[str, dict[str, Any]]:
+    place = PLACES.get(jurisdiction, jurisdiction)
+    return SEARCH_TOOL, {"query": YIELD_QUERY.format(place=place), "k": 3, "jurisdiction": jurisdiction}
+
+
+def yield_rule(result: str, jurisdiction: str) -> tuple[str, str] | None:
+    """(how: 'rescue_lane', 'left' or 'right'; the citation) from a search result, preferring the passage of
+    the jurisdiction's own document; None if no passage says how to make way."""
+    try:
+        passages = json.loads(result).get("passages") or []
+    except (json.JSONDecodeError, AttributeError):
+        return None
+    prefix = jurisdiction.lower()
+    ordered = sorted(passages, key=lambda p: not str(p.get("document", "")).startswith(prefix))
+    for passage in ordered:
+        text = str(passage.get("text", "")).lower()
+        if "emergency" not in text and "ambulance" not in text:
+            continue
+        cite = str(passage.get("cite") or passage.get("document"))
+        if "rescue lane" in text:
+            return "rescue_lane", cite
+        left = re.search(r"pull (?:over )?to the left|left edge|to the left side", text)
+        right = re.search(r"pull (?:over )?to the right|right-hand edge|right edge", text)
+        if left or right:  # the rule comes first, its exceptions after ("...on a one-way road, to the right")
+            first = min((m for m in (left, right) if m), key=lambda m: m.start())
+            return ("left" if first is left else "right"), cite
+    return None
+
+
+def yield_lane(how: str, current_lane: str | None) -> tuple[str, bool]:
+    """(the lane to drive, whether to stop there rather than crawl) for a rule."""
+    if how == "rescue_lane":
+        return ("left" if current_lane == "left" else "right"), False
+    return how, True
