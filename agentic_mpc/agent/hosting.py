@@ -51,10 +51,10 @@ class ServerHost:
         """Open a session to each of ``servers`` (name -> anything ``mcp.Client`` takes) and list its tools."""
         listed: list[ToolSpec] = []
         for name, target in servers.items():
-            try:
-                client = await asyncio.wait_for(
-                    stack.enter_async_context(Client(target, cache=None, client_info=CLIENT_INFO)), CONNECT_TIMEOUT_S)
-                tools = (await asyncio.wait_for(client.list_tools(), CONNECT_TIMEOUT_S)).tools
+            try:  # asyncio.timeout, not wait_for: the session's task group must be entered in this task
+                async with asyncio.timeout(CONNECT_TIMEOUT_S):
+                    client = await stack.enter_async_context(Client(target, cache=None, client_info=CLIENT_INFO))
+                    tools = (await client.list_tools()).tools
                 if not tools:
                     raise RuntimeError("it lists no tools")
             except Exception as error:  # noqa: BLE001 - one server failing leaves the others

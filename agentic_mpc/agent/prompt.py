@@ -91,6 +91,11 @@ def system_prompt(
     attached = (initial or {}).get("attached", [])
     lines += [_describe_primitive(p) for p in attached if p.get("kind") != "mandatory"] or ["- (unknown)"]
     lines += ["", "Available tools:"] + [_describe_tool(t) for t in tools]
+    search = next((t.name for t in tools if t.name.endswith("__search_knowledge")), None)
+    if search is not None:  # a knowledge server among the agent's: say when to use it (models answered from memory)
+        lines += ["", f"Knowledge: for a question about traffic rules, speed limits, making way for an emergency "
+                      f"vehicle or this car, first call {search} with the question, then answer from the passages "
+                      "it returns and name the document id you used (for example jp-traffic-rules)."]
     if road_lines := describe_road(road):  # last: what a small model reads just before the passenger's message
         lines += ["", *road_lines]
     if extra:

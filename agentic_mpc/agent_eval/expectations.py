@@ -81,6 +81,8 @@ class Turn:
     message: str
     expect: tuple[CallSpec, ...]
     alternatives: tuple[tuple[CallSpec, ...], ...] = ()
+    cites: tuple[str, ...] = ()
+    """Documents (knowledge ids) one of which the answer must name: a turn that needs a document."""
 
     @property
     def options(self) -> tuple[tuple[CallSpec, ...], ...]:

@@ -19,6 +19,7 @@ from typing import Any
 
 from agentic_mpc.agent import Agent, AgentConfig
 from agentic_mpc.agent.backends.base import Backend, BackendReply
+from agentic_mpc.agent.hosting import SEPARATOR
 from agentic_mpc.agent_eval.scoring import judge, sort_attempts
 from agentic_mpc.agent_eval.suite import Case, Suite, SuiteError, WorldRef
 
@@ -97,6 +98,12 @@ class EvalWorld:
             raise
         self.initial = self.loop.slot.current
         self.lefthand = bool(self.world.lanes().lefthand)
+        self.others: dict[str, Any] = {}
+        if ref.knowledge:
+            from agentic_mpc.knowledge.server import build_knowledge_server
+            from agentic_mpc.knowledge.store import KnowledgeBase
+
+            self.others["knowledge"] = build_knowledge_server(KnowledgeBase())
 
     def reset(self) -> None:
         """Back to the scenario's initial specification (the only state a case changes)."""
@@ -134,16 +141,20 @@ def run_case(case: Case, world: EvalWorld, backend: Backend, config: AgentConfig
     """One case: a fresh agent over ``world`` from its initial specification, every turn delivered and judged."""
     world.reset()
     results: list[TurnResult] = []
-    with Agent(backend, world.loop.server, config) as agent:
+    with Agent(backend, world.loop.server, config, other_servers=world.others) as agent:
         listed = {tool.name for tool in agent.tools}
         wait_s = config.backend_timeout_s * config.backend_attempts * config.max_rounds_per_step + 30.0
         for index, turn in enumerate(case.turns):
             v_before = world.v_ref_mps()
-            started = time.perf_counter()
+            started, seen = time.perf_counter(), len(agent.history)
             report = agent.deliver(turn.message).result(timeout=wait_s)
+            said = " ".join(m.content for m in agent.history.messages[seen:] if m.role == "assistant" and m.content)
             latency_s = time.perf_counter() - started
-            attempts = sort_attempts(report.tool_calls, listed)
-            verdict = judge(turn, attempts, v_before, backend_failed=report.ended == "backend_error")
+            # a knowledge search changes nothing: what is scored is the calls to the car and the answer
+            to_car = [call for call in report.tool_calls if SEPARATOR not in str(call.get("tool"))]
+            attempts = sort_attempts(to_car, listed)
+            verdict = judge(turn, attempts, v_before, backend_failed=report.ended == "backend_error",
+                            answer=said)  # every answer of the step: the citation may precede its last
             results.append(TurnResult(
                 case.id, case.category, case.world, index + 1, len(case.turns), turn.message,
                 turn.describe(v_before), list(attempts.accepted), report.text, report.ended, verdict.right,
@@ -166,7 +177,7 @@ def run_suite(suite: Suite, cases: Sequence[Case], make_backend: BackendFactory,
             for case in (c for c in cases if c.world == name):
                 backend = make_backend(world.lefthand)  # per case: a fresh backend state (and event loop)
                 if not checked:  # the suite's tool names against what this server lists
-                    with Agent(KeepOpen(backend), world.loop.server, config) as probe:
+                    with Agent(KeepOpen(backend), world.loop.server, config, other_servers=world.others) as probe:
                         _check_tools(cases, {t.name for t in probe.tools}, suite)
                     checked = True
                 result = run_case(case, world, backend, config)

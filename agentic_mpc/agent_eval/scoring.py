@@ -87,8 +87,16 @@ class Verdict:
 
 
 def judge(turn: Turn, attempts: Attempts, current_v_ref_mps: float | None,
-          backend_failed: bool = False) -> Verdict:
-    """The verdict on one turn (see the module docstring)."""
+          backend_failed: bool = False, answer: str = "") -> Verdict:
+    """The verdict on one turn (see the module docstring); a turn with ``cites`` is right only if the answer
+    also names one of those documents."""
+    verdict = _judge_calls(turn, attempts, current_v_ref_mps, backend_failed)
+    if verdict.right and turn.cites and not any(doc in answer for doc in turn.cites):
+        return Verdict(False, f"the answer cites none of {', '.join(turn.cites)}")
+    return verdict
+
+
+def _judge_calls(turn: Turn, attempts: Attempts, current_v_ref_mps: float | None, backend_failed: bool) -> Verdict:
     calls = list(attempts.accepted)
     if backend_failed and not calls:
         return Verdict(False, "no answer from the backend")

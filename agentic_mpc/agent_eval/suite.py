@@ -23,7 +23,9 @@ File layout::
           - {message: "Go back to normal.", expect: [...], alternatives: [[...]]}
 
 ``expect`` lists the calls a turn must make (``[]``: no call at all); ``alternatives`` lists other call
-lists that are right too. ``tool`` is a name or a list of names (any of them). ``args`` constrains each
+lists that are right too; ``cites`` lists documents (knowledge ids) one of which the answer must name, in a
+world with ``knowledge: true`` (the agent then has the knowledge server; its searches are not scored as
+calls). ``tool`` is a name or a list of names (any of them). ``args`` constrains each
 argument (an argument not named is free):
 
 - a plain value: that value (numbers within 0.01);
@@ -77,6 +79,8 @@ class WorldRef:
     name: str
     scenario: Path
     variant: str | None = None
+    knowledge: bool = False
+    """The agent gets the shipped knowledge server (its calls are not scored as calls)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -164,9 +168,12 @@ def _calls(raw: Any, what: str) -> tuple[CallSpec, ...]:
 def _turn(raw: Any) -> Turn:
     if not isinstance(raw, dict):
         raise _Problem(f"a turn must be a mapping, got {raw!r}")
-    extra = set(raw) - {"message", "expect", "alternatives"}
+    extra = set(raw) - {"message", "expect", "alternatives", "cites"}
     if extra:
-        raise _Problem(f"unknown key(s) {sorted(extra)} in a turn (message, expect, alternatives)")
+        raise _Problem(f"unknown key(s) {sorted(extra)} in a turn (message, expect, alternatives, cites)")
+    cites = raw.get("cites") or []
+    if not isinstance(cites, list) or not all(isinstance(c, str) and c for c in cites):
+        raise _Problem("cites must be a list of document ids")
     message = raw.get("message")
     if not isinstance(message, str) or not message.strip():
         raise _Problem("every turn needs a non-empty message")
@@ -176,11 +183,11 @@ def _turn(raw: Any) -> Turn:
     if not isinstance(alternatives, list):
         raise _Problem("alternatives must be a list of call lists")
     return Turn(message, _calls(raw["expect"], "expect"),
-                tuple(_calls(a, "each alternative") for a in alternatives))
+                tuple(_calls(a, "each alternative") for a in alternatives), tuple(cites))
 
 
 def _case(raw: dict[str, Any], worlds: dict[str, WorldRef], categories: dict[str, str]) -> Case:
-    extra = set(raw) - {"id", "category", "world", "message", "expect", "alternatives", "turns", "note"}
+    extra = set(raw) - {"id", "category", "world", "message", "expect", "alternatives", "cites", "turns", "note"}
     if extra:
         raise _Problem(f"unknown key(s) {sorted(extra)}")
     if raw.get("category") not in categories:
@@ -196,7 +203,7 @@ def _case(raw: dict[str, Any], worlds: dict[str, WorldRef], categories: dict[str
             raise _Problem("a dialogue's expect and alternatives belong in its turns")
         turns = tuple(_turn(t) for t in raw["turns"])
     else:
-        turns = (_turn({k: raw[k] for k in ("message", "expect", "alternatives") if k in raw}),)
+        turns = (_turn({k: raw[k] for k in ("message", "expect", "alternatives", "cites") if k in raw}),)
     return Case(str(raw["id"]), str(raw["category"]), str(raw["world"]), turns, str(raw.get("note") or ""))
 
 
@@ -235,14 +242,15 @@ def load_suite(path: str | Path | None = None) -> Suite:
         problems.append(f"{path}: worlds must map names to {{scenario: FILE}}")
         raw_worlds = {}
     for name, raw in raw_worlds.items():
-        if not isinstance(raw, dict) or not isinstance(raw.get("scenario"), str) or set(raw) - {"scenario", "variant",
-                                                                                               "description"}:
-            problems.append(f"{path}: world {name!r}: expected {{scenario: FILE, variant: NAME (optional)}}")
+        if not isinstance(raw, dict) or not isinstance(raw.get("scenario"), str) or set(raw) - {
+                "scenario", "variant", "description", "knowledge"}:
+            problems.append(f"{path}: world {name!r}: expected {{scenario: FILE, variant: NAME, knowledge: BOOL}} "
+                            "(variant and knowledge optional)")
             continue
         scenario = _resolve(raw["scenario"], path)
         if not scenario.is_file():
             problems.append(f"{path}: world {name!r}: no scenario file {raw['scenario']!r}")
-        worlds[str(name)] = WorldRef(str(name), scenario, raw.get("variant"))
+        worlds[str(name)] = WorldRef(str(name), scenario, raw.get("variant"), bool(raw.get("knowledge", False)))
     categories = data.get("categories")
     if not isinstance(categories, dict) or not categories:
         problems.append(f"{path}: categories must map names to descriptions")

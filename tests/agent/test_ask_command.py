@@ -138,3 +138,12 @@ def test_ask_with_a_bad_model_file_fails_before_the_run(capsys, tmp_path, conten
     assert ask_main("hello", "--backend", "llamacpp", "--model-path", str(path)) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and why in captured.err and str(path) in captured.err
+
+
+def test_a_question_with_knowledge_is_answered_from_the_document_it_cites(capsys):
+    from agentic_mpc.cli import main
+
+    assert main(["ask", "What is the speed limit on a Japanese expressway?", "--knowledge"]) == 0
+    out = capsys.readouterr().out
+    assert "knowledge__search_knowledge(query='What is the speed limit on a Japanese expressway?'" in out
+    assert "jp-traffic-rules" in out and "100 km/h" in out

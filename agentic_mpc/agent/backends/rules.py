@@ -171,7 +171,11 @@ class RulesBackend:
                 plan.notes += [note] if note is not None else []
                 return plan
         if meaning.question:
-            plan.notes.append("That is a question; I answer it without changing anything.")
+            if knowledge.SEARCH_TOOL in tools and found is None:  # look it up, then answer citing it
+                plan.calls.append(knowledge.question_call(text, jurisdiction))
+                return plan
+            answer = knowledge.answer_from(found, text) if found is not None else None
+            plan.notes.append(answer or "That is a question; I answer it without changing anything.")
             return plan
         if meaning.conditional and meaning.steering not in ("left", "right", "clear"):
             plan.notes.append("I act on what is happening now; I do not keep instructions for later situations.")

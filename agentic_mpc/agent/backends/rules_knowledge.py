@@ -67,3 +67,46 @@ def yield_lane(how: str, current_lane: str | None) -> tuple[str, bool]:
     if how == "rescue_lane":
         return ("left" if current_lane == "left" else "right"), False
     return how, True
+
+
+_PLACE_WORDS = {"JP": r"japan\w*", "DE": r"german\w*|autobahn", "UK": r"uk|britain|british|england|english",
+                "US-CA": r"california\w*|usa|united states|america\w*"}
+
+
+def question_call(question: str, jurisdiction: str | None = None) -> tuple[str, dict[str, Any]]:
+    """The search for a question: among the documents of the place it names, else of the road's, else all."""
+    named = [code for code, words in _PLACE_WORDS.items() if re.search(rf"\b(?:{words})\b", question.lower())]
+    place = named[0] if len(named) == 1 else jurisdiction
+    return SEARCH_TOOL, {"query": question[:500], "k": 3, **({"jurisdiction": place} if place else {})}
+
+
+def answer_from(result: str, question: str) -> str | None:
+    """The sentence of the best passage that shares most words with the question, with its citation."""
+    try:
+        passages = json.loads(result).get("passages") or []
+    except (json.JSONDecodeError, AttributeError):
+        return None
+    if not passages:
+        return None
+    best = passages[0]
+    asked = _words(question) - _STOPWORDS
+    text = re.sub(r"\n(?!- )", " ", str(best.get("text", "")))  # hard-wrapped lines joined; list items kept
+    sentences = [s.strip(" -") for s in re.split(r"(?<=\.)\s+|\n", text) if s.strip(" -")]
+    if not sentences:
+        return None
+
+    def overlap(sentence: str) -> int:
+        return len(asked & _words(sentence))
+
+    ranked = sorted(range(len(sentences)), key=lambda i: (-overlap(sentences[i]), i))[:2]
+    said = " ".join(sentences[i] for i in sorted(ranked))
+    return f"According to {best.get('cite') or best.get('document')}: {said}"
+
+
+def _words(text: str) -> set[str]:
+    """Lower-case words, a plural's s dropped (expressways ~ expressway)."""
+    return {w[:-1] if len(w) > 3 and w.endswith("s") else w for w in re.findall(r"[a-z0-9]+", text.lower())}
+
+
+_STOPWORDS = {"what", "is", "the", "a", "an", "on", "in", "of", "to", "how", "do", "we", "this", "for", "and", "it",
+              "are", "does", "can", "our", "us", "be", "at", "with", "which", "when", "where"}
