@@ -49,8 +49,8 @@ import logging
 import math
 import threading
 from collections.abc import Callable
-from contextlib import AsyncExitStack
 from concurrent.futures import Future
+from contextlib import AsyncExitStack
 from dataclasses import replace
 from functools import partial
 from typing import Any

@@ -16,8 +16,8 @@ from typing import Any
 
 from agentic_mpc.agent.connect import read_json_resource
 from agentic_mpc.mcp.protocol import EGO_URI, EMERGENCY_VEHICLES_URI, ROAD_URI, SPECIFICATION_URI, TRAFFIC_URI
-from agentic_mpc.world.lanes import LEADER_RANGE_M
 from agentic_mpc.world.emergency import EmergencyDetector, EmergencyEvent
+from agentic_mpc.world.lanes import LEADER_RANGE_M
 
 MAX_EMERGENCY_LISTED = 3
 

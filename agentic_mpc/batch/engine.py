@@ -76,8 +76,9 @@ def run_batch(spec: BatchSpec, runner: Runner | str | None = None, progress: boo
     """Run every job of ``spec`` not yet finished; the package docstring says what is guaranteed.
 
     ``jobs``: run these instead of planning them from ``spec.files`` (``spec`` still gives the workers, the
-    output directory and the executor). ``runner`` is the run function (``run_to_directory(scenario_file, variant, seed, out_dir) -> summary row``)
-    or its ``module:function``; default :data:`DEFAULT_RUNNER`. Raises :class:`BatchInputError` before any
+    output directory and the executor). ``runner`` is the run function
+    (``run_to_directory(scenario_file, variant, seed, out_dir) -> summary row``) or its ``module:function``;
+    default :data:`DEFAULT_RUNNER`. Raises :class:`BatchInputError` before any
     run starts if the input is bad. Ctrl-C (or SIGTERM) stops the runs in flight and returns ``interrupted``.
     """
     runner_ref = runner_reference(runner)

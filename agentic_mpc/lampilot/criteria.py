@@ -84,7 +84,8 @@ class Judge:
         self.verdict: Verdict | None = None
         self.target: float | None = None
         if self.kind == "ACCEvalbySpeed":
-            self.target = float(evaluation["speed"]) if "speed" in evaluation else first.speed_mps + float(evaluation["rel_speed"])
+            self.target = (float(evaluation["speed"]) if "speed" in evaluation
+                           else first.speed_mps + float(evaluation["rel_speed"]))
         elif self.kind == "ACCEvalbyDistance":
             if first.leader_gap_m is not None:
                 self.target = (float(evaluation["distance"]) if "distance" in evaluation
@@ -123,8 +124,9 @@ class Judge:
     def _met(self, view: StepView) -> bool:
         if self.kind == "ACCEvalbySpeed":
             target = self.target
-            if view.leader_speed_mps is not None and view.leader_gap_m is not None and view.leader_gap_m <= LEADER_RANGE_M \
-                    and view.leader_speed_mps < target:
+            slower_leader = (view.leader_speed_mps is not None and view.leader_gap_m is not None
+                             and view.leader_gap_m <= LEADER_RANGE_M and view.leader_speed_mps < target)
+            if slower_leader:
                 target = view.leader_speed_mps
             return abs(view.speed_mps - target) <= SPEED_TOLERANCE_MPS
         if self.kind == "ACCEvalbyDistance":

@@ -39,8 +39,8 @@ from typing import Any
 from pydantic import ValidationError
 
 from agentic_mpc.geometry import LanePath
-from agentic_mpc.mcp.protocol import ToolName, lane_tool_name
 from agentic_mpc.mcp.maneuvers import ManeuverTools, path_tracking_like, validated
+from agentic_mpc.mcp.protocol import ToolName, lane_tool_name
 from agentic_mpc.mcp.tool_table import Side, SpeedMps, ToolCallError, lane_tool, tool
 from agentic_mpc.primitives import (
     PathTracking,

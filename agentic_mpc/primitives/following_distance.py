@@ -32,8 +32,9 @@ class FollowingDistance(Primitive):
     g(k) is where the ego's centre would be with the wanted gap w(k) to the nearest leader's rear bumper at
     stage k, along the leader's contact tangent t(k) (see :class:`~agentic_mpc.primitives.base.Leader`):
     g(k) = contact(k) - w(k) t(k). Only the along-path error counts, so J1 still holds the lane. The wanted gap
-    moves from the gap now (at the first stage, where J0's time gap starts) towards ``gap_m`` at ``approach_mps`` (a gap 50 m too long closes in 25 s at
-    2 m/s, not with a lunge). With no leader the term costs nothing and J1's speed rules.
+    moves from the gap now (at the first stage, where J0's time gap starts) towards ``gap_m`` at
+    ``approach_mps`` (a gap 50 m too long closes in 25 s at 2 m/s, not with a lunge). With no leader the term
+    costs nothing and J1's speed rules.
     """
 
     kind: ClassVar[str] = "following_distance"

@@ -38,8 +38,8 @@ from agentic_mpc.primitives import PreferredSteeringDirection, Specification, Sp
 from agentic_mpc.run.recorder import RunRecorder, StepOutcome
 from agentic_mpc.run.timeline import MessageSchedule, TimedMessage
 from agentic_mpc.vehicle import throttle_for_steady_speed
-from agentic_mpc.world.base import World
 from agentic_mpc.world import ALERT_DISTANCE_M
+from agentic_mpc.world.base import World
 from agentic_mpc.world.emergency import EmergencyDetector
 from agentic_mpc.world.lanes import situation_of
 
