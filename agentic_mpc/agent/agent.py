@@ -63,7 +63,7 @@ from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resourc
 from agentic_mpc.agent.hosting import ServerHost, target_of
 from agentic_mpc.agent.messages import Message, MessageHistory, Source
 from agentic_mpc.agent.prompt import restore_note, specification_changes, system_prompt
-from agentic_mpc.agent.report import StepReport
+from agentic_mpc.agent.report import StepReport, answer_closed
 from agentic_mpc.agent.situation import EmergencyWatch, read_situation
 from agentic_mpc.agent.tool_calls import ToolRunner, call_key
 from agentic_mpc.agent.transcript import Transcript
@@ -184,24 +184,11 @@ class Agent:
                 if listening is not None:
                     listening.cancel()
         finally:
-            await self._drain_closed()
+            answer_closed(self._queue)
             try:
                 await self.backend.aclose()
             except Exception:
                 logger.exception("closing the backend failed")
-
-    async def _drain_closed(self) -> None:
-        if self._queue is None:
-            return
-        while not self._queue.empty():
-            item = self._queue.get_nowait()
-            if item is not None:
-                message, future = item
-                if isinstance(message, WatchRequest):
-                    future.set_result([])
-                    continue
-                report = StepReport(message.content, message.source or "user", message.sim_time_s, ended="closed")
-                future.set_result(report)
 
     async def _introduce(self, client: Client) -> None:
         listed = await client.list_tools()

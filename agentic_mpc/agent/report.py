@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from agentic_mpc.agent.config import WatchRequest
 from agentic_mpc.agent.messages import Source
 
 
@@ -30,3 +31,17 @@ class StepReport:
     def applied_calls(self) -> list[dict[str, Any]]:
         """The calls the server accepted, as {"tool", "arguments"}."""
         return [{"tool": c["tool"], "arguments": c["arguments"]} for c in self.tool_calls if c["ok"]]
+
+
+def answer_closed(queue: Any) -> None:
+    """Answer what is still queued when the agent closes (``asyncio.Queue`` of (message, future) or None):
+    a message ends ``closed``, an emergency-vehicle check finds nothing; nobody is left waiting."""
+    while queue is not None and not queue.empty():
+        item = queue.get_nowait()
+        if item is None:
+            continue
+        message, future = item
+        if isinstance(message, WatchRequest):
+            future.set_result([])
+        else:
+            future.set_result(StepReport(message.content, message.source or "user", message.sim_time_s, ended="closed"))
