@@ -11,7 +11,9 @@ One control step at simulation time t (:meth:`RunLoop.step`):
 4. the world advances one step with those inputs (the plant moves, the traffic reacts);
 5. the MCP server announces the new observation; an agent with observation messages watches the resource
    ``sumo://emergency-vehicles`` for an emergency vehicle approaching or passed and wakes itself (lockstep:
-   it checks here and the loop waits; realtime: subscribed to the resource's updates); the step is recorded.
+   it checks here and the loop waits; realtime: subscribed to the resource's updates); the step is recorded;
+   every 0.2 s the world is told the controller's plan (``World.signal_intention``: SUMO's drivers let the
+   ego into the lane it enters).
 
 Every tool call the MCP server receives (from the embedded agent or an outside host) is recorded as it
 arrives, with its client and the sim time (``tool_call_received`` in ``events.csv``).
@@ -45,6 +47,8 @@ from agentic_mpc.world.lanes import situation_of
 
 logger = logging.getLogger(__name__)
 
+_ANNOUNCE_EVERY_STEPS = 5
+"""How often the world is told the controller's plan (0.2 s at 0.04 s: SUMO's drivers react within a second)."""
 LAG_WARNING_S = 0.5
 """A paced run more than this far behind the wall clock says once that it cannot keep real time."""
 
@@ -162,9 +166,15 @@ class RunLoop:
         if self._observation_messages and self._lockstep:  # the agent checks what it reads; the car waits
             self.agent.watch(round(after.time_s, 3))
         self.recorder.step(outcome, after)
+        steps = len(self.recorder.trajectory_rows) - 1
         stride = self.settings.plan_stride
-        if stride and (len(self.recorder.trajectory_rows) - 1) % stride == 0:
-            self.recorder.plan(before.time_s, self.controller.planned_states(state))
+        announce = steps % _ANNOUNCE_EVERY_STEPS == 0
+        if announce or stride and steps % stride == 0:
+            plan = self.controller.planned_states(state)
+            if announce:
+                world.signal_intention(plan[:, :2])
+            if stride and steps % stride == 0:
+                self.recorder.plan(before.time_s, plan)
         return outcome
 
     def warm_up(self) -> None:

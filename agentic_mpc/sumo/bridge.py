@@ -58,6 +58,8 @@ _POSITION, _ANGLE, _SPEED, _LANE_ID, _LANE_INDEX, _LANE_POS, _LANE_POS_LAT = _ST
     tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANE_ID, tc.VAR_LANE_INDEX, tc.VAR_LANEPOSITION,
     tc.VAR_LANEPOSITION_LAT,
 )
+_SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (every kind of change, respecting others)
+_GAP_CHANGE_RATE = 1.0  # openGap: how fast the follower's headway moves to the requested one (per s)
 _new_state = tuple.__new__  # VehicleState without the NamedTuple's keyword-handling __new__ (half the cost)
 
 _active_lock = threading.Lock()
@@ -104,6 +106,7 @@ class SumoBridge:
         self._info: dict[str, VehicleInfo] = {}
         self._context_ego: str | None = None
         self._emergency: set[str] = set()
+        self._stopped: set[str] = set()  # obstacles held by a stop
         self._external: dict[str, float] = {}  # id -> length, for the centre/front conversion
         self._pending_speeds: dict[str, tuple[float, float]] = {}
         self._waiting_external: dict[str, tuple[int, float]] = {}
@@ -295,6 +298,7 @@ class SumoBridge:
         A stop on the lane (not a parking stop, which leaves the lane; not speed 0, which gets teleported).
         """
         self.add_vehicle(vehicle_id, route_id, type_id, lane_index=lane_index, pos_m=pos_m, speed_mps=0.0)
+        self._stopped.add(vehicle_id)
         try:
             libsumo.vehicle.setLaneChangeMode(vehicle_id, 0)
             libsumo.vehicle.setStop(vehicle_id, edge_id, pos=pos_m, laneIndex=lane_index, duration=1e9)
@@ -399,6 +403,52 @@ class SumoBridge:
                 libsumo.vehicletype.setParameter(type_id, key, str(value))
         except _LIBSUMO_ERRORS as error:
             raise SumoError(f"cannot set parameters {params} of vType {type_id!r}: {_message(error)}") from error
+
+    def open_gaps(self, vehicle_id: str, gap_requests: Iterable, end_for: Iterable[str] = ()) -> None:
+        """Each :class:`~agentic_mpc.sumo.intention.GapRequest`'s follower opens a gap behind ``vehicle_id``; the
+        vehicles ``end_for`` stop doing so. SUMO's gap control with a reference vehicle ends only once its gap
+        is reached: a follower that had passed a standing ego stood for good (measured)."""
+        self._require_running()
+        try:
+            present = set(libsumo.vehicle.getIDList())
+            for follower_id in end_for:
+                if follower_id in present:
+                    libsumo.vehicle.deactivateGapControl(follower_id)
+            for request in gap_requests:
+                libsumo.vehicle.openGap(
+                    request.follower_id, request.time_headway_s, request.space_headway_m, request.duration_s,
+                    _GAP_CHANGE_RATE, request.max_decel_mps2, vehicle_id,
+                )
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail(f"asking followers to let {vehicle_id!r} in", error) from error
+
+    def release_rescue_lanes(self, behind_m: float, lc_strategic: dict[str, float]) -> tuple[str, ...]:
+        """Drivers an emergency vehicle has passed by more than ``behind_m`` (along their route) get strategic lane
+        changes (``lc_strategic``: vType id -> lcStrategic, else SUMO's 1) and SUMO's default lane-change mode
+        back; SUMO's bluelight device keeps both from them while it is on their edge (docs/traffic.md). External
+        and stopped vehicles are left alone. Returns the ids released."""
+        self._require_running()
+        released = []
+        try:
+            for vehicle_id in libsumo.vehicle.getIDList():
+                emergency_id = libsumo.vehicle.getParameter(vehicle_id, "rescueLane")
+                if not emergency_id or vehicle_id in self._external or vehicle_id in self._stopped:
+                    continue
+                if float(libsumo.vehicle.getParameter(vehicle_id, "laneChangeModel.lcStrategic")) >= 0.0:
+                    continue  # released already (the device takes it once)
+                if emergency_id in self._emergency:
+                    x_m, y_m = libsumo.vehicle.getPosition(emergency_id)
+                    if libsumo.vehicle.getDrivingDistance2D(vehicle_id, x_m, y_m) <= behind_m:
+                        continue  # still close, or not on its route ahead (a huge negative number)
+                type_id = libsumo.vehicle.getTypeID(vehicle_id).split("@")[0]  # the device's copy is type@vehicle
+                libsumo.vehicle.setParameter(
+                    vehicle_id, "laneChangeModel.lcStrategic", repr(lc_strategic.get(type_id, 1.0))
+                )
+                libsumo.vehicle.setLaneChangeMode(vehicle_id, _SUMO_LANE_CHANGE_MODE)
+                released.append(vehicle_id)
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail("releasing drivers from a rescue lane", error) from error
+        return tuple(released)
 
     def lane_vehicles(self, lane_id: str) -> list[tuple[float, float, float, float]]:
         """(front-bumper lane position, length, minGap, speed) of each vehicle on a lane, by position."""

@@ -126,6 +126,12 @@ class RescueLanes(FrozenConfig):
         default_factory=lambda: {"device.bluelight.reaction-prob-far": 1.0, "device.bluelight.reaction-prob-near": 1.0},
         description="parameters set on every emergency vType (SUMO's defaults: 0.189 and 0.577 per second)",
     )
+    release_behind_m: float | None = Field(
+        None, gt=0,
+        description="drivers an emergency vehicle is this far past change lanes again (None: reaction_dist_m). SUMO"
+        " 1.28 allows them no strategic or speed-gain lane changes while it is on their edge, so on a long edge a"
+        " queue behind a stopped car never merged past it (docs/traffic.md)",
+    )
 
     @field_validator("emergency_params")
     @classmethod
@@ -174,6 +180,11 @@ class SumoConfig(FrozenConfig):
     sensing_range_m: float = Field(150.0, gt=0)
     keep_route: Literal[2, 3] = Field(3, description="moveToXY keepRoute for the ego (see SumoBridge)")
     surroundings: SurroundingsConfig = SurroundingsConfig()
+    announce_lane_changes: bool = Field(
+        True,
+        description="SUMO's drivers told of the ego's lane changes (its plan): followers in the lane it enters asked"
+        " to open a gap, braking at most surroundings.follower_yield_mps2 (agentic_mpc.sumo.intention)",
+    )
     sumo_log_file: Path | None = None
     quiet: bool = Field(True, description="suppress SUMO's warnings on stderr")
 

@@ -30,6 +30,8 @@ class RouteTypes:
     vclass: dict[str, str] = field(default_factory=dict)
     distributions: dict[str, tuple[str, ...]] = field(default_factory=dict)
     used: set[str] = field(default_factory=set)
+    lc_strategic: dict[str, float] = field(default_factory=dict)
+    """vType id -> its lcStrategic attribute, where a route file sets one (SUMO's default is 1)."""
 
     def known(self, type_id: str) -> bool:
         return type_id in self.vclass or type_id in self.distributions
@@ -55,6 +57,14 @@ def read_route_types(route_files: Iterable[Path]) -> RouteTypes:
         for element in root.iter():
             if element.tag == "vType" and element.get("id"):
                 types.vclass[element.get("id")] = element.get("vClass", "passenger")
+                if element.get("lcStrategic") is not None:
+                    try:
+                        types.lc_strategic[element.get("id")] = float(element.get("lcStrategic"))
+                    except ValueError:
+                        raise RouteFileError(
+                            f"route file {route_file}: vType {element.get('id')!r} has lcStrategic"
+                            f" {element.get('lcStrategic')!r}, not a number"
+                        ) from None
             elif element.tag == "vTypeDistribution" and element.get("id"):
                 nested = tuple(t.get("id") for t in element.iter("vType") if t.get("id"))
                 listed = tuple((element.get("vTypes") or "").split())
@@ -62,6 +72,20 @@ def read_route_types(route_files: Iterable[Path]) -> RouteTypes:
             elif element.tag in _VEHICLE_TAGS:
                 types.used.add(element.get("type", "DEFAULT_VEHTYPE"))
     return types
+
+
+def type_attribute(route_files: Iterable[Path], type_id: str, name: str, default: float) -> float:
+    """A numeric attribute of a vType from the route files (``default`` where the vType does not set it)."""
+    route_files = tuple(route_files)
+    for route_file in route_files:
+        try:
+            root = ElementTree.parse(route_file).getroot()
+        except (OSError, ElementTree.ParseError) as error:
+            raise RouteFileError(f"malformed route file {route_file}: {error}") from error
+        for element in root.iter("vType"):
+            if element.get("id") == type_id:
+                return float(element.get(name, default))
+    raise RouteFileError(f"vType {type_id!r} is not defined in the route files {[str(r) for r in route_files]}")
 
 
 def has_emergency_vehicles(config: SumoConfig, types: RouteTypes | None = None) -> bool:

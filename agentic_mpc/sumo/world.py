@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import warnings
-import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,14 +29,23 @@ from agentic_mpc.primitives import Circle, Surroundings
 from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
 from agentic_mpc.sumo.insertion import insert_at_free_gap
+from agentic_mpc.sumo.intention import IntentionReader
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
-from agentic_mpc.sumo.route_files import RouteFileError, RouteTypes, read_route_types, rescue_lanes_active
+from agentic_mpc.sumo.route_files import (
+    RouteFileError,
+    RouteTypes,
+    read_route_types,
+    rescue_lanes_active,
+    type_attribute,
+)
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder, obstacle_circles
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
 from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import Observation
+
+_RELEASE_EVERY_STEPS = 25  # drivers released from a rescue lane once a second at 0.04 s
 
 
 @dataclass
@@ -81,6 +89,8 @@ class SumoWorld:
         self.params = params
         self.dt_s = params.dt_s
         self._bridge: SumoBridge | None = None
+        self._sumo_steps = 0
+        self._asked: set[str] = set()  # followers asked to open a gap for the ego in the last cycle
         self._observation: Observation | None = None
         for route_file in config.route_files:
             if not Path(route_file).is_file():
@@ -120,6 +130,9 @@ class SumoWorld:
                 self.road, config.ego_id, self._bridge.info, self.obstacle_ids, self._obstacle_state
             )
             self._observation = self._observe()
+            self._intention = IntentionReader(
+                self.road, self.ego_width_m, max_decel_mps2=config.surroundings.follower_yield_mps2
+            ) if config.announce_lane_changes else None
         except SumoError as error:
             self.close()
             raise WorldError(f"SUMO world set-up failed: {error}") from error
@@ -162,17 +175,10 @@ class SumoWorld:
         return self._type_attribute(type_id, "length", 5.0)
 
     def _type_attribute(self, type_id: str, name: str, default: float) -> float:
-        for route_file in self.config.route_files:
-            try:
-                root = ElementTree.parse(route_file).getroot()
-            except ElementTree.ParseError as error:
-                raise WorldError(f"malformed route file {route_file}: {error}") from error
-            for element in root.iter("vType"):
-                if element.get("id") == type_id:
-                    return float(element.get(name, default))
-        raise WorldError(
-            f"vType {type_id!r} is not defined in the route files {[str(r) for r in self.config.route_files]}"
-        )
+        try:
+            return type_attribute(self.config.route_files, type_id, name, default)
+        except RouteFileError as error:
+            raise WorldError(str(error)) from error
 
     def _route_from(self, edge_id: str) -> str:
         """The id of a SUMO route along the road from ``edge_id`` to its end (added once)."""
@@ -201,7 +207,7 @@ class SumoWorld:
             if c.warmup_s > 0.0:
                 self._add_spawns()
                 for _ in range(round(c.warmup_s / self.dt_s)):
-                    self._bridge.step()
+                    self._step_sumo()
             start = self._ego_start
             self._bridge.add_external_vehicle(
                 c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
@@ -352,13 +358,35 @@ class SumoWorld:
             self._bridge.move_external(
                 self.config.ego_id, x, y, phi, speed_mps=speed, accel_mps2=(speed - float(state[3])) / self.dt_s,
             )
-            self._bridge.step()
+            self._step_sumo()
             self._observation = self._observe()
         except Exception as error:
             self.close()
             raise WorldError(f"SUMO failed at t={self.time_s:.2f} s: {error}") from error
         self._state = new_state
         return self._observation
+
+    def signal_intention(self, planned_xy: np.ndarray) -> None:
+        """The ego's plan (its centre over the horizon, (H, 2)): SUMO's drivers told of the lane it enters."""
+        if self._intention is None or not self.running:
+            return
+        intention = self._intention.read(self.observation, planned_xy)
+        asked = {request.follower_id for request in intention.requests}
+        if asked or self._asked:  # each cycle renews the requests; the followers no longer asked are let go
+            try:
+                self._bridge.open_gaps(self.config.ego_id, intention.requests, end_for=self._asked - asked)
+            except SumoError as error:  # the bridge has closed SUMO
+                raise WorldError(f"SUMO failed at t={self.time_s:.2f} s: {error}") from error
+        self._asked = asked
+
+    def _step_sumo(self) -> None:
+        """One SUMO step; with rescue lanes, drivers an emergency vehicle has passed are released once a second."""
+        self._bridge.step()
+        self._sumo_steps += 1
+        if self.rescue_lanes and self._sumo_steps % _RELEASE_EVERY_STEPS == 0:
+            rescue = self.config.rescue_lanes
+            behind_m = rescue.release_behind_m or rescue.reaction_dist_m
+            self._bridge.release_rescue_lanes(behind_m, self._route_types.lc_strategic)
 
     def time_loss_s(self, vehicle_id: str) -> float | None:
         return self.bridge.time_loss_s(vehicle_id)

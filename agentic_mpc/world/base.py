@@ -70,6 +70,10 @@ class World(Protocol):
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
         """Apply the ego's inputs for one control step; returns the new observation. Raises WorldError."""
 
+    def signal_intention(self, planned_xy: np.ndarray) -> None:
+        """The controller's plan, the ego's centre over the horizon ((H, 2), m): where the world's other drivers
+        can react to what the ego is about to do (SUMO: followers in a lane it enters open a gap), they are told."""
+
     def time_loss_s(self, vehicle_id: str) -> float | None:
         """How much time a vehicle has lost against driving at its desired speed (None if unknown)."""
 

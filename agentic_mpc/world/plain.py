@@ -108,6 +108,9 @@ class PlainWorld:
             if o.in_j2 or not only_in_j2
         )
 
+    def signal_intention(self, planned_xy: np.ndarray) -> None:
+        """Its movers keep their speeds whatever the ego does: nobody to tell."""
+
     def surroundings(self, horizon: int, tracked_path: LanePath | None) -> Surroundings:
         x = float(self._state[0])
         k = np.arange(1, horizon + 1)
