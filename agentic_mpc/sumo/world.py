@@ -32,13 +32,8 @@ from agentic_mpc.sumo.insertion import insert_at_free_gap
 from agentic_mpc.sumo.intention import IntentionReader
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
-from agentic_mpc.sumo.route_files import (
-    RouteFileError,
-    RouteTypes,
-    read_route_types,
-    rescue_lanes_active,
-    type_attribute,
-)
+from agentic_mpc.sumo.route_files import RouteFileError, read_route_types, rescue_lanes_active, type_attribute
+from agentic_mpc.sumo.start import open_bridge
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder, obstacle_circles
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
@@ -55,29 +50,6 @@ class _Resolved:
     edge_id: str
     lane_index: int
     pos_m: float
-
-
-def open_bridge(
-    config: SumoConfig, seed: int, step_length_s: float, lefthand: bool | None = None, types: RouteTypes | None = None
-) -> SumoBridge:
-    """SUMO started for ``config``: its options, and with rescue lanes (resolved from the config and the route
-    files) the sublane model, the bluelight reaction distance and the emergency vTypes' parameters."""
-    types = types or read_route_types(config.route_files)
-    rescue = rescue_lanes_active(config, types)
-    bridge = SumoBridge(
-        config.net_file, config.route_files, seed=seed, step_length_s=step_length_s,
-        lateral_resolution_m=config.lateral_resolution_m if config.sublane or rescue else None,
-        bluelight_reaction_dist_m=config.rescue_lanes.reaction_dist_m if rescue else None,
-        log_file=config.sumo_log_file, quiet=config.quiet, keep_route=config.keep_route, lefthand=lefthand,
-    )
-    try:
-        if rescue:  # before any vehicle exists: per-vehicle types copy their vType's parameters
-            for type_id in types.emergency_types():
-                bridge.set_type_parameters(type_id, config.rescue_lanes.emergency_params)
-    except BaseException:
-        bridge.close()
-        raise
-    return bridge
 
 
 class SumoWorld:

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import libsumo
 import numpy as np
-import pytest
 
 from agentic_mpc.sumo.config import EgoStart, RescueLanes, SumoConfig
 from agentic_mpc.sumo.intention import GapRequest, IntentionReader
 from agentic_mpc.sumo.scenarios import net_files, nets_dir
-from agentic_mpc.sumo.world import SumoWorld, open_bridge
+from agentic_mpc.sumo.start import open_bridge
+from agentic_mpc.sumo.world import SumoWorld
 from agentic_mpc.vehicle import throttle_for_steady_speed
 
 EGO_SPEED_MPS = 10.0

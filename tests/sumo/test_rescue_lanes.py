@@ -13,7 +13,8 @@ from agentic_mpc.sumo.config import RescueLanes, SumoConfig, VehicleSpawn
 from agentic_mpc.sumo.insertion import free_spots
 from agentic_mpc.sumo.route_files import rescue_lanes_active
 from agentic_mpc.sumo.scenarios import net_files, nets_dir, scenario2_config
-from agentic_mpc.sumo.world import SumoWorld, open_bridge
+from agentic_mpc.sumo.start import open_bridge
+from agentic_mpc.sumo.world import SumoWorld
 
 WALL_SPEED_MPS = 15.0
 
