@@ -3,23 +3,22 @@
 A new user message (typed, or generated from an observation) starts an agent step: it is appended to the
 history, the backend answers with text and tool calls, each call goes to the MCP server and its result is
 appended, and the backend is asked again, until it answers without tool calls; then the agent idles until
-the next message. One exception (``AgentConfig.restore_reminder``, off by default, language models only):
-if a step's answer calls no tool while the specification (``mpc://specification``) differs from the initial
-one, that answer is set aside (recorded in the transcript, not kept in the history: a small model repeats its
-last answer), the agent appends a note saying how the specification differs (a user message with
-``source="agent"``) and asks once more: restore it if the situation that needed the change is over, else
-reply. At most once per step, never after a successful call in the step, never in its last round.
+the next message. One exception, the restore reminder (``AgentConfig.restore_reminder``, off by default:
+:meth:`Agent._remind`). The system message (tau = 0) holds the road (``sumo://road``), the initially
+attached primitives and the tools, so the agent can restore the original specification; a language model
+reads it as soon as the agent starts (``warm_up``), so that a message costs only its own tokens. Tool calls
+are run by :mod:`agentic_mpc.agent.tool_calls`; answers are asked for by :mod:`agentic_mpc.agent.backend_calls`.
 
-The system message (tau = 0) holds the road (``sumo://road``: lanes, handedness, what yielding and resuming
-mean), the initially attached primitives and the tools, so the agent can restore the original specification.
-Tool calls are run by :mod:`agentic_mpc.agent.tool_calls`.
+A step ends: without calls (``idle``); on calls it already made (``repeated``) or one that puts the
+specification back as it was before the call just made (``undone``); when its time or token budget is spent
+(``budget``); after ``max_rounds_per_step`` answers. What it changed until then stands.
 
 The agent talks to the controller ONLY through the MCP server, with ``mcp.Client``: in-process by default
 (pass the ``MCPServer``, or any object with an ``mcp_server`` attribute holding one), or a server in another
 process (``StdioServerParameters``) or over HTTP (a URL; ``AgentConfig.bearer_token_env`` names the environment
-variable holding the server's bearer token, ``AgentConfig.headers`` adds any other header). Of the MCP side it imports only the client contract,
-:mod:`agentic_mpc.mcp.protocol`, never the server's implementation. It runs in its own thread with its own
-event loop: the control loop never waits for it.
+variable holding the server's bearer token, ``AgentConfig.headers`` adds any other header). Of the MCP side it
+imports only the client contract, :mod:`agentic_mpc.mcp.protocol`, never the server's implementation. It runs
+in its own thread with its own event loop: the control loop never waits for it.
 
 Timing modes (``AgentConfig.mode``):
 
@@ -36,10 +35,9 @@ reads over MCP too (:mod:`agentic_mpc.agent.situation`): each step's situation, 
 
 Bad input never stops the car: empty, oversized or non-text messages are rejected before they become a step;
 unknown tools, unparseable or schema-violating arguments (including NaN) are answered with a tool error
-message (the backend may correct itself, at most ``max_consecutive_errors`` rounds in a row); calls it
-already made in the step end it; an unreachable or timed-out backend is retried ``backend_attempts`` times,
-then the step ends. Each is in the transcript (:mod:`agentic_mpc.agent.transcript`) and the log; the
-controller keeps its last valid specification.
+message (the backend may correct itself, at most ``max_consecutive_errors`` rounds in a row); an unreachable
+or timed-out backend is retried ``backend_attempts`` times, then the step ends. Each is in the transcript
+(:mod:`agentic_mpc.agent.transcript`) and the log; the controller keeps its last valid specification.
 """
 
 from __future__ import annotations
@@ -57,7 +55,8 @@ from typing import Any
 
 from mcp import Client
 
-from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
+from agentic_mpc.agent.backend_calls import BudgetSpent, StepBudget, complete, warm_up
+from agentic_mpc.agent.backends.base import Backend, BackendError, ToolSpec
 from agentic_mpc.agent.config import AgentConfig, AgentError, WatchRequest, check_message, root_cause
 from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resource
 from agentic_mpc.agent.hosting import ServerHost, target_of
@@ -105,6 +104,9 @@ class Agent:
         self._watch = EmergencyWatch(self.config.alert_distance_m)
         self._watch_queued = False  # realtime: one pending check is enough, however many updates arrived
         self._ready = threading.Event()
+        self.warmed = threading.Event()
+        """Set once the model has read the system message (at once for backends without a prompt cache)."""
+        self._system_tokens: int | None = None  # as the model's server counted them at the warm-up
         self._startup_error: BaseException | None = None
         self._client: Client | None = None
         self._host: ServerHost | None = None
@@ -163,6 +165,7 @@ class Agent:
                 await self._host.connect(stack, self.other_servers)
                 await self._introduce(client)
                 self._ready.set()
+                await self._warm()
                 listening = (asyncio.create_task(self._listen(client)) if self.config.observation_messages
                              and self.config.mode == "realtime" else None)
                 while True:
@@ -199,7 +202,8 @@ class Agent:
         for reason in self._host.errors:
             self.transcript.record("server_error", tau=None, sim_time_s=self._now(None), error=reason)
         initial = await read_json_resource(client, INITIAL_SPECIFICATION_URI)  # None: the agent cannot restore
-        self._initial = initial
+        self._initial = initial  # a language model reads tool results as one line against it (tool_calls.py):
+        self._runner.initial = initial if getattr(self.backend, "reads_situation", True) else None
         road = await read_json_resource(client, ROAD_URI, missing=logging.INFO)  # None: an older server
         system = self.history.append(
             Message(
@@ -210,6 +214,15 @@ class Agent:
             )
         )
         self.transcript.message(system)
+
+    async def _warm(self) -> None:
+        """Have the model read the system message now (``AgentConfig.warm_up``; agent/backend_calls.py)."""
+        try:
+            if self.config.warm_up:
+                self._system_tokens = await warm_up(self.backend, self.history.messages[:1], self.tools,
+                                                    self.config, self.transcript, partial(self._now, None))
+        finally:
+            self.warmed.set()
 
     # ------------------------------------------------------------------ inputs
     def _now(self, frozen: float | None) -> float | None:
@@ -234,13 +247,9 @@ class Agent:
         if problem is not None:
             preview = text[:200] if isinstance(text, str) else repr(text)[:200]
             logger.warning("rejected %s message: %s", source, problem)
-            self.transcript.record(
-                "rejected_input", tau=self.history.tau, sim_time_s=t, source=source, error=problem,
-                preview=preview, length=len(text) if isinstance(text, str) else None,
-            )
-            report = StepReport(preview, source, t, ended="rejected")
-            report.errors.append(problem)
-            future.set_result(report)
+            self.transcript.record("rejected_input", tau=self.history.tau, sim_time_s=t, source=source, error=problem,
+                                   preview=preview, length=len(text) if isinstance(text, str) else None)
+            future.set_result(StepReport(preview, source, t, errors=[problem], ended="rejected"))
             return future
         message = Message("user", text.replace("\x00", ""), source=source, sim_time_s=t)
         self._loop.call_soon_threadsafe(self._queue.put_nowait, (message, future))  # type: ignore[union-attr]
@@ -288,29 +297,37 @@ class Agent:
     async def _run_step(self, incoming: Message) -> StepReport:
         frozen = incoming.sim_time_s if self.config.mode == "lockstep" else None
         apply_at = None if frozen is None else frozen + self.config.latency_s
-        if self.config.situation and getattr(self.backend, "reads_situation", True) and self._client is not None:
+        budget = StepBudget(self.config.step_budget_s, self.config.step_budget_tokens)
+        model = getattr(self.backend, "reads_situation", True) and self._client is not None
+        if self.config.situation and model:
             incoming = replace(incoming, context=await read_situation(self._client))
         user = self._append(incoming)
         report = StepReport(user.content, user.source or "user", user.sim_time_s, first_tau=user.tau)
         now = partial(self._now, frozen)
         consecutive_errors = 0
         made: set[str] = set()  # the calls this step ran successfully, to stop a model that repeats them
+        # the specification before each successful call of the step, to stop a model that undoes its last one
+        states = [_attached(await read_json_resource(self._client, SPECIFICATION_URI))] if model else []
         reminded = False
         for round_index in range(self.config.max_rounds_per_step):
+            if (spent := budget.spent(report.usage)) is not None:
+                report.errors.append(spent)
+                report.ended = "budget"
+                break
             try:
-                reply = await self._complete(frozen)
+                reply = await complete(self.backend, self.history.messages, self.tools, self.config,
+                                       self.transcript, now, budget, self._system_tokens)
             except BackendError as error:
                 report.errors.append(str(error))
-                report.ended = "backend_error"
+                report.ended = "budget" if isinstance(error, BudgetSpent) else "backend_error"
                 break
+            report.usage.add(reply.usage)
             calls = reply.tool_calls
             last_round = round_index + 1 >= self.config.max_rounds_per_step
             if not (calls or made or reminded or last_round) and await self._remind(reply.text, frozen):
                 reminded = True
                 continue
-            agent_message = self._append(
-                Message("assistant", reply.text, tool_calls=calls, sim_time_s=now())
-            )
+            agent_message = self._append(Message("assistant", reply.text, tool_calls=calls, sim_time_s=now()))
             report.text = reply.text
             if not calls:
                 report.ended = "idle"
@@ -329,37 +346,40 @@ class Agent:
                     result = await self._runner.execute(self._host, self.tools, call, apply_at,
                                                         agent_message.tau, now)
                 stamped = self._append(result)
-                entry: dict[str, Any] = {"tool": call.name, "arguments": call.arguments, "ok": not stamped.is_error}
-                entry["error" if stamped.is_error else "result"] = stamped.data if stamped.data else stamped.content
-                if apply_at is not None:
-                    entry["apply_at_s"] = apply_at
-                report.tool_calls.append(entry)
-                if not stamped.is_error:
+                if report.add_call(call, stamped, apply_at):
                     made.add(call_key(call))
-                if stamped.is_error:
+                    states.append(_attached(stamped.data))
+                else:
                     failures += 1
-                    report.errors.append(f"{call.name}: {stamped.content}")
             consecutive_errors = consecutive_errors + 1 if failures == len(calls) else 0
             if consecutive_errors >= self.config.max_consecutive_errors:
                 report.ended = "gave_up"
                 break
+            if len(states) >= 3 and states[-1] is not None and states[-1] == states[-3] != states[-2]:
+                report.ended = "undone"  # back to what it was before the call just made: no end to this
+                self.transcript.record("undone_call", tau=self.history.tau, sim_time_s=now(),
+                                       calls=[call.describe() for call in calls])
+                break
         else:
             report.ended = "round_limit"
+        report.wall_s = round(budget.elapsed_s(), 3)
         report.last_tau = self.history.tau
         level = logging.INFO if report.ended == "idle" else logging.WARNING
         logger.log(level, "agent step tau %d-%d ended (%s): %d tool call(s), %d error(s)", report.first_tau,
                    report.last_tau, report.ended, len(report.tool_calls), len(report.errors))
         self.transcript.record(
             "step_end", tau=report.last_tau, sim_time_s=now(), ended=report.ended,
-            applied=report.applied_calls, errors=report.errors,
+            applied=report.applied_calls, errors=report.errors, wall_s=report.wall_s, **report.usage.describe(),
         )
         return report
 
     async def _remind(self, withheld: str, frozen: float | None) -> bool:
-        """The restore reminder (``AgentConfig.restore_reminder``) for an answer without a call: if the
-        specification differs from the initial one, record the answer (``withheld``: it does not enter the
-        history, a small model repeats its last answer), append a note saying how it differs and ask once
-        more (True); else nothing (False)."""
+        """The restore reminder (``AgentConfig.restore_reminder``, language models only) for an answer without
+        a call: if the specification differs from the initial one, record the answer (``withheld``: it does
+        not enter the history, a small model repeats its last answer), append a note saying how it differs
+        (a user message, ``source="agent"``) and ask once more (True): restore it if the situation that
+        needed the change is over, else reply; else nothing (False). At most once per step, never after a
+        successful call in the step, never in its last round."""
         if not (self.config.restore_reminder and getattr(self.backend, "reads_situation", True)
                 and self._client is not None and self._initial is not None):
             return False
@@ -372,26 +392,7 @@ class Agent:
         self._append(Message("user", restore_note(changes), source="agent", sim_time_s=self._now(frozen)))
         return True
 
-    async def _complete(self, frozen: float | None) -> BackendReply:
-        last_error: BaseException | None = None
-        for attempt in range(1, self.config.backend_attempts + 1):
-            try:
-                return await asyncio.wait_for(
-                    self.backend.complete(self.history.messages, self.tools), self.config.backend_timeout_s
-                )
-            except (BackendError, TimeoutError) as error:
-                last_error = error
-                detail = str(error) or f"no answer within {self.config.backend_timeout_s} s"
-            except Exception as error:  # a backend bug must not kill the agent either
-                last_error = error
-                detail = f"unexpected backend failure: {error!r}"
-            logger.warning("backend %s failed (attempt %d/%d): %s", self.backend.name, attempt,
-                           self.config.backend_attempts, detail)
-            self.transcript.record("backend_error", tau=self.history.tau, sim_time_s=self._now(frozen),
-                                   backend=self.backend.name, attempt=attempt, error=detail)
-            if attempt < self.config.backend_attempts:
-                await asyncio.sleep(self.config.retry_backoff_s * attempt)
-        raise BackendError(
-            f"backend {self.backend.name} gave no usable answer after {self.config.backend_attempts} attempts: "
-            f"{str(last_error) or type(last_error).__name__}"
-        )
+
+def _attached(specification: Any) -> Any:
+    """The attached primitives of a specification (``mpc://specification`` or a tool result), if it says."""
+    return specification.get("attached") if isinstance(specification, dict) else None

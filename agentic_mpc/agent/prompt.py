@@ -115,7 +115,8 @@ def _by_kind(specification: dict[str, Any] | None) -> dict[str, dict[str, Any]]:
             and isinstance(p.get("kind"), str) and p["kind"] != "mandatory"}
 
 
-def _shown(value: Any) -> str:
+def shown_value(value: Any) -> str:
+    """A setting as the model reads it (floats without trailing zeros)."""
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
@@ -128,10 +129,10 @@ def specification_changes(initial: dict[str, Any] | None, current: dict[str, Any
     changes = []
     for kind, settings in now.items():
         if kind not in before:
-            shown = ", ".join(f"{key}={_shown(value)}" for key, value in settings.items())
+            shown = ", ".join(f"{key}={shown_value(value)}" for key, value in settings.items())
             changes.append(f"{kind}({shown}) is attached (not initially)")
             continue
-        differing = [f"{key}={_shown(value)} (initially {_shown(before[kind].get(key))})"
+        differing = [f"{key}={shown_value(value)} (initially {shown_value(before[kind].get(key))})"
                      for key, value in settings.items() if before[kind].get(key) != value]
         if differing:
             changes.append(f"{kind}: {', '.join(differing)}")

@@ -5,8 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from agentic_mpc.agent.backend_calls import StepUsage
 from agentic_mpc.agent.config import WatchRequest
-from agentic_mpc.agent.messages import Source
+from agentic_mpc.agent.messages import Message, Source, ToolCall
 
 
 @dataclass
@@ -23,9 +24,27 @@ class StepReport:
     text: str = ""
     """The agent's last text."""
     errors: list[str] = field(default_factory=list)
-    ended: Literal["idle", "backend_error", "gave_up", "round_limit", "repeated", "rejected", "closed"] = "idle"
+    ended: Literal["idle", "backend_error", "gave_up", "round_limit", "repeated", "undone", "budget", "rejected",
+                   "closed"] = "idle"
     """``repeated``: the backend asked again for calls it had made in this step (a small model that sees no
-    end to its task); they were not run again and the step ended."""
+    end to its task); they were not run again and the step ended. ``undone``: a call put the specification
+    back as it was before the call just made (a model going back and forth); the step ended there.
+    ``budget``: the step's time or token budget ran out (agent/backend_calls.py)."""
+    usage: StepUsage = field(default_factory=StepUsage)
+    """What the step's answers cost the model (tokens, the model's own time)."""
+    wall_s: float = 0.0
+    """The step's wall time, from its message to its end."""
+
+    def add_call(self, call: ToolCall, result: Message, apply_at_s: float | None) -> bool:
+        """Record one call and the tool message answering it; whether the server accepted it."""
+        entry: dict[str, Any] = {"tool": call.name, "arguments": call.arguments, "ok": not result.is_error}
+        entry["error" if result.is_error else "result"] = result.data if result.data else result.content
+        if apply_at_s is not None:
+            entry["apply_at_s"] = apply_at_s
+        self.tool_calls.append(entry)
+        if result.is_error:
+            self.errors.append(f"{call.name}: {result.content}")
+        return not result.is_error
 
     @property
     def applied_calls(self) -> list[dict[str, Any]]:

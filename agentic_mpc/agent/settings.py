@@ -57,6 +57,14 @@ class AgentRunSettings(FrozenConfig):
                                     description="how far behind an emergency vehicle starts to matter")
     max_rounds_per_step: int = Field(6, ge=1, le=100, description="backend answers per agent step (a model that "
                                      "keeps calling tools is stopped there)")
+    step_budget_s: float | None = Field(
+        60.0, gt=0, description="wall seconds an agent step may take (null: no limit); when they run out the "
+                                "step ends (\"budget\"), the car keeps its last valid specification")
+    step_budget_tokens: int | None = Field(
+        4096, ge=1, description="model tokens (prompt processed + generated, as the model's server reports them) "
+                                "an agent step may spend (null: no limit)")
+    warm_up: bool = Field(True, description="language models: have the model read the system message as soon as "
+                                            "the agent starts, so that the first message pays only for itself")
     extra_prompt: str = Field("", max_length=8000, description="appended to the system prompt (language models)")
     restore_reminder: bool = Field(
         False, description="language models: a step whose answer calls no tool while the specification differs "
@@ -98,6 +106,9 @@ class ChatSettings(AgentRunSettings):
                                                                          "(e.g. top_p)")
     timeout_s: float = Field(120.0, gt=0, description="seconds per answer; the agent step's own timeout is this "
                                                       "plus 5 s, so the backend's runs out first")
+    context_tokens: int | None = Field(
+        None, ge=256, description="the model's context in tokens: older steps of the history are left out of a "
+                                  "request that would not fit (null: never; llamacpp: its ctx_size)")
     rules_first: bool = Field(False, description="the rules backend answers what it understands, the model the "
                                                  "rest (agent/backends/rules_first.py)")
 
@@ -109,6 +120,11 @@ class ChatSettings(AgentRunSettings):
         from agentic_mpc.agent.backends.rules_first import RulesFirst
 
         return RulesFirst(RulesBackend(yield_lane="left" if lefthand else "right"), model)
+
+    @property
+    def context_limit_tokens(self) -> int | None:
+        """The history must fit into this many tokens (None: no limit known)."""
+        return None if self.context_tokens is None else max(128, self.context_tokens - self.max_tokens)
 
     @property
     def effective_tool_mode(self) -> ToolMode:
@@ -140,6 +156,15 @@ class LlamaCppSettings(ChatSettings):
     ctx_size: int = Field(8192, ge=256, le=1_048_576, description="context size in tokens")
     gpu_layers: int = Field(-1, ge=-1, description="layers offloaded to a GPU (-1: llama.cpp decides; 0: none)")
     verbose: bool = Field(False, description="llama.cpp's own log on stderr")
+    rules_first: bool = Field(True, description="the rules backend answers what it understands, the model the "
+                                                "rest (agent/backends/rules_first.py); on by default for a model "
+                                                "in process, a small one on a CPU (docs/llm-backends.md: 111 of "
+                                                "121 suite cases against 60 for Qwen2.5-Coder-1.5B alone)")
+
+    @property
+    def context_limit_tokens(self) -> int:
+        """The history must fit into this many tokens: the context, less one answer."""
+        return max(128, min(self.context_tokens or self.ctx_size, self.ctx_size) - self.max_tokens)
 
     @field_validator("model")
     @classmethod

@@ -5,7 +5,9 @@ Scenario 2 (the ambulance, SUMO, left-hand traffic) with the passenger asking to
 ``seeds`` seeds, through the normal runner (``scenario.runner.run_scenario``) with the scenario's ``agent:``
 settings overridden by ``configure`` (the command passes ``commands.with_agent_settings``); Scenario 2 also runs once per seed without a message
 (no agent call), the holding baseline the ambulance's delay is compared with. Per run: the side the car
-passed the obstacle on, collisions, the ambulance's delay, and the tool calls the agent made.
+passed the obstacle on, collisions, the ambulance's delay, the tool calls the agent made, and what its steps
+cost: their wall time, the model's own time for their tokens (as its server reported them) and the ratio, and
+the sim time from the first message to the first accepted call (in realtime mode the car drove on meanwhile).
 """
 
 from __future__ import annotations
@@ -40,21 +42,44 @@ RUNS = (
 )
 
 COLUMNS = ("scenario", "variant", "seed", "status", "wants", "obstacle_side", "as_asked", "collisions",
-           "collisions_ego_at_fault", "ambulance_delay_s", "delay_saved_s", "agent_tool_calls", "calls", "wall_s")
+           "collisions_ego_at_fault", "ambulance_delay_s", "delay_saved_s", "agent_tool_calls", "calls", "agent_steps",
+           "agent_wall_s", "model_s", "wall_per_model", "first_call_after_s", "wall_s")
 
 
 def _calls(out_dir: Path) -> list[str]:
     """The tool calls the server accepted, from the run's transcript."""
     calls = []
-    path = out_dir / "transcript.jsonl"
-    if not path.is_file():
-        return calls
-    for line in path.read_text(encoding="utf-8").splitlines():
-        record = json.loads(line)
+    for record in _records(out_dir):
         if record.get("event") == "tool_result" and not record.get("is_error"):
             arguments = ", ".join(f"{k}={v!r}" for k, v in (record.get("arguments") or {}).items())
             calls.append(f"{record.get('tool')}({arguments})")
     return calls
+
+
+def _records(out_dir: Path) -> list[dict[str, Any]]:
+    path = out_dir / "transcript.jsonl"
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+
+
+def agent_timing(out_dir: Path) -> dict[str, Any]:
+    """What the run's agent steps cost (from its transcript): steps, their wall time and the model's own time
+    summed, the ratio, and the sim seconds from the first user message to the first accepted call."""
+    records = _records(out_dir)
+    steps = [r for r in records if r.get("event") == "step_end"]
+    wall = sum(float(r.get("wall_s") or 0.0) for r in steps)
+    timed = [float(r["model_s"]) for r in steps if r.get("model_s") is not None]
+    message_at = next((r.get("sim_time_s") for r in records
+                       if r.get("event") == "message" and r.get("role") == "user"), None)
+    applied_at = next((r.get("sim_time_s") for r in records
+                       if r.get("event") == "tool_result" and not r.get("is_error")), None)
+    after = (round(float(applied_at) - float(message_at), 3)
+             if isinstance(message_at, int | float) and isinstance(applied_at, int | float) else "")
+    model = sum(timed) if timed else None
+    return {"agent_steps": len(steps), "agent_wall_s": round(wall, 3),
+            "model_s": "" if model is None else round(model, 3),
+            "wall_per_model": round(wall / model, 3) if model else "", "first_call_after_s": after}
 
 
 def run_closed_loop(configure: Callable[[Any], Any], seeds: int, out_dir: Path,
@@ -92,7 +117,7 @@ def run_closed_loop(configure: Callable[[Any], Any], seeds: int, out_dir: Path,
                 "ambulance_delay_s": delay,
                 "delay_saved_s": round(held_delay_s - delay, 3) if run.wants == "yield" else "",
                 "agent_tool_calls": summary.get("agent_tool_calls", ""),
-                "calls": "; ".join(_calls(where)), "wall_s": summary.get("wall_s", ""),
+                "calls": "; ".join(_calls(where)), **agent_timing(where), "wall_s": summary.get("wall_s", ""),
             }
             rows.append(row)
             if progress is not None:

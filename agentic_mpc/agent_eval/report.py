@@ -15,7 +15,8 @@ from agentic_mpc.agent_eval.runner import CaseResult, TurnResult
 from agentic_mpc.agent_eval.scoring import show_calls
 
 TURN_COLUMNS = ("case_id", "category", "world", "turn", "turns", "message", "expected", "calls", "verdict",
-                "detail", "answer", "ended", "latency_s", "repeats", "unparsed", "invalid", "v_ref_before_mps")
+                "detail", "answer", "ended", "latency_s", "repeats", "unparsed", "invalid", "v_ref_before_mps",
+                "answers", "prompt_tokens", "cached_tokens", "generated_tokens", "model_s", "wall_per_model")
 
 
 def percentile(values: Sequence[float], q: float) -> float:
@@ -33,6 +34,8 @@ def summarise(results: Sequence[CaseResult], categories: dict[str, str], about: 
     """The summary: ``about`` (backend, model, suite, ...) and the counts."""
     turns = [t for r in results for t in r.turns]
     latencies = [t.latency_s for t in turns]
+    ratios = [t.wall_per_model for t in turns if t.wall_per_model is not None]
+    first = turns[0] if turns else None
     by_category = {}
     for name in categories:
         chosen = [r for r in results if r.case.category == name]
@@ -62,6 +65,23 @@ def summarise(results: Sequence[CaseResult], categories: dict[str, str], about: 
         "latency_p95_s": round(percentile(latencies, 95), 3),
         "latency_max_s": round(max(latencies), 3) if latencies else float("nan"),
         "latency_total_s": round(sum(latencies), 3),
+        "first_turn_latency_s": None if first is None else first.latency_s,
+        "model": {  # what the model's server reported (llama.cpp); nothing for the rules or a silent server
+            "turns_timed": len(ratios),
+            "wall_per_model_p50": round(percentile(ratios, 50), 3),
+            "wall_per_model_p95": round(percentile(ratios, 95), 3),
+            "first_turn_wall_per_model": None if first is None or first.wall_per_model is None
+            else round(first.wall_per_model, 3),
+            "model_s_p50": round(percentile([t.model_s for t in turns if t.model_s is not None], 50), 3),
+            "prompt_tokens_p50": percentile([t.prompt_tokens for t in turns], 50),
+            "generated_tokens_p50": percentile([t.generated_tokens for t in turns], 50),
+            "answers_p50": percentile([t.answers for t in turns], 50),
+            "prompt_tokens_total": sum(t.prompt_tokens for t in turns),
+            "cached_tokens_total": sum(t.cached_tokens for t in turns),
+            "generated_tokens_total": sum(t.generated_tokens for t in turns),
+        },
+        "ended_on_budget": sum(t.ended == "budget" for t in turns),
+        "ended_undone": sum(t.ended == "undone" for t in turns),
     }
 
 
@@ -79,6 +99,13 @@ def table(summary: dict[str, Any]) -> str:
     )
     lines.append(f"latency per turn: p50 {summary['latency_p50_s']:.2f} s, p95 {summary['latency_p95_s']:.2f} s, "
                  f"max {summary['latency_max_s']:.2f} s, total {summary['latency_total_s']:.0f} s")
+    model = summary["model"]
+    if model["turns_timed"]:
+        lines.append(f"the model's own time: p50 {model['model_s_p50']:.2f} s a turn ({model['prompt_tokens_p50']:.0f} "
+                     f"prompt tokens processed, {model['generated_tokens_p50']:.0f} generated, "
+                     f"{model['answers_p50']:.0f} answer(s)); wall / model p50 {model['wall_per_model_p50']:.2f}, "
+                     f"p95 {model['wall_per_model_p95']:.2f}; steps ended on the budget {summary['ended_on_budget']}, "
+                     f"on an undone call {summary['ended_undone']}")
     return "\n".join(lines)
 
 
@@ -89,7 +116,9 @@ def turn_row(turn: TurnResult) -> dict[str, Any]:
         "verdict": "right" if turn.right else "wrong", "detail": turn.detail, "answer": turn.answer,
         "ended": turn.ended, "latency_s": turn.latency_s, "repeats": turn.repeats,
         "unparsed": " | ".join(turn.unparsed), "invalid": " | ".join(turn.invalid),
-        "v_ref_before_mps": turn.v_ref_before_mps,
+        "v_ref_before_mps": turn.v_ref_before_mps, "answers": turn.answers, "prompt_tokens": turn.prompt_tokens,
+        "cached_tokens": turn.cached_tokens, "generated_tokens": turn.generated_tokens, "model_s": turn.model_s,
+        "wall_per_model": None if turn.wall_per_model is None else round(turn.wall_per_model, 3),
     }
 
 

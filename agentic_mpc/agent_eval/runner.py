@@ -69,6 +69,19 @@ class TurnResult:
     invalid: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
     v_ref_before_mps: float | None = None
+    answers: int = 0
+    """Backend answers in the step."""
+    prompt_tokens: int = 0
+    """Prompt tokens the model processed (those it had cached not counted), as its server reported them."""
+    cached_tokens: int = 0
+    generated_tokens: int = 0
+    model_s: float | None = None
+    """The model server's own time for those tokens (llama.cpp's timings; None: the server did not say)."""
+
+    @property
+    def wall_per_model(self) -> float | None:
+        """The turn's wall time over the model's own time: what the agent adds to what the tokens cost."""
+        return None if not self.model_s else self.latency_s / self.model_s
 
 
 @dataclass
@@ -142,6 +155,7 @@ def run_case(case: Case, world: EvalWorld, backend: Backend, config: AgentConfig
     world.reset()
     results: list[TurnResult] = []
     with Agent(backend, world.loop.server, config, other_servers=world.others) as agent:
+        agent.warmed.wait(config.backend_timeout_s)  # as in a run: the model read the system message at the start
         listed = {tool.name for tool in agent.tools}
         wait_s = config.backend_timeout_s * config.backend_attempts * config.max_rounds_per_step + 30.0
         for index, turn in enumerate(case.turns):
@@ -159,7 +173,9 @@ def run_case(case: Case, world: EvalWorld, backend: Backend, config: AgentConfig
                 case.id, case.category, case.world, index + 1, len(case.turns), turn.message,
                 turn.describe(v_before), list(attempts.accepted), report.text, report.ended, verdict.right,
                 verdict.detail, round(latency_s, 3), attempts.repeats, list(attempts.unparsed),
-                list(attempts.invalid), list(report.errors), v_before,
+                list(attempts.invalid), list(report.errors), v_before, report.usage.answers,
+                report.usage.prompt_tokens, report.usage.cached_tokens, report.usage.generated_tokens,
+                None if report.usage.model_s is None else round(report.usage.model_s, 3),
             ))
     return CaseResult(case, results)
 

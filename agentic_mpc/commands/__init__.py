@@ -73,6 +73,15 @@ def add_backend_flags(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--extra-prompt", default=None, help="openai, llamacpp: appended to the system prompt")
     parser.add_argument("--extra-body", default=None, metavar="JSON",
                         help='openai: merged into every request body, e.g. \'{"top_p": 0.9}\'')
+    parser.add_argument("--step-budget-s", type=float, default=None,
+                        help="wall seconds an agent step may take (60); 0: no limit")
+    parser.add_argument("--step-budget-tokens", type=positive_int, default=None,
+                        help="model tokens (processed + generated) an agent step may spend (4096)")
+    parser.add_argument("--no-warm-up", dest="warm_up", action="store_false", default=None,
+                        help="openai, llamacpp: do not have the model read the system message at the start")
+    parser.add_argument("--rules-first", action=argparse.BooleanOptionalAction, default=None,
+                        help="openai, llamacpp: the rules backend answers what it understands, the model the rest "
+                             "(llamacpp's default; --no-rules-first: the model alone)")
     parser.add_argument("--yield-lane", choices=("left", "right"), default=None,
                         help="rules: where to pull over for emergency vehicles (the road edge's side)")
 
@@ -165,10 +174,12 @@ def flag_settings(args: argparse.Namespace) -> dict:
 
     settings: dict = {"backend": args.backend}
     names = ("base_url", "model", "api_key_env", "timeout_s", "threads", "ctx_size", "tool_mode", "temperature",
-             "max_tokens", "extra_prompt", "yield_lane")
+             "max_tokens", "extra_prompt", "yield_lane", "step_budget_tokens", "warm_up", "rules_first")
     settings.update({name: getattr(args, name) for name in names if getattr(args, name, None) not in (None, "")})
     if getattr(args, "model_path", None) is not None:
         settings["model"] = args.model_path
+    if getattr(args, "step_budget_s", None) is not None:
+        settings["step_budget_s"] = args.step_budget_s or None  # 0: no limit
     if getattr(args, "api_key_env", None) == "":
         settings["api_key_env"] = None
     if getattr(args, "extra_body", None):

@@ -114,6 +114,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"agent: {report.text}")
     for error in report.errors:
         print(f"error: {error}", file=sys.stderr)
+    usage = report.usage
+    if usage.model_s is not None:  # a model whose server says what the tokens cost it
+        print(f"the step: {usage.answers} answer(s), {usage.prompt_tokens} prompt tokens read ({usage.cached_tokens} "
+              f"from the cache), {usage.generated_tokens} generated; the model's time {usage.model_s:.1f} s, the "
+              f"step's {report.wall_s:.1f} s (ended: {report.ended})", file=sys.stderr)
     if report.ended == "rejected":
         return 2
     if not calls:

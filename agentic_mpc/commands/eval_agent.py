@@ -49,8 +49,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--suite", type=Path, default=None, help="the suite YAML (default: the shipped one)")
     add_backend_flags(parser)
-    parser.add_argument("--rules-first", action="store_true",
-                        help="openai, llamacpp: the rules backend answers what it understands, the model the rest")
     parser.add_argument("--max-rounds", type=positive_int, default=None,
                         help="backend answers per turn (default 2: a call and a second one; json_schema mode "
                              "allows one call per answer, so a compound request needs both); with --closed-loop "
@@ -79,8 +77,6 @@ def _check_options(args: argparse.Namespace) -> None:
                              f"not {args.backend}")
     if args.backend == "llamacpp" and args.model_path is None:
         raise InputError("--backend llamacpp needs --model-path (a GGUF model file)")
-    if args.closed_loop and args.rules_first:
-        raise InputError("--rules-first is measured on the suite only, not with --closed-loop")
     if args.closed_loop and (args.category or args.case or args.limit is not None or args.suite or args.per_category):
         raise InputError("--closed-loop runs the paper's scenarios: --suite, --category, --case, --limit, "
                          "--per-category do not apply")
@@ -169,9 +165,11 @@ def _suite(args: argparse.Namespace) -> int:
         return _fail(str(error))
     model = None
     settings = _settings(args)
+    rules_first = bool(getattr(settings, "rules_first", False))
+    bare = settings.model_copy(update={"rules_first": False}) if rules_first else settings  # wrapped per case below
     if args.backend != "rules":
         try:  # llamacpp: loaded once for the whole suite, each case's agent borrows it; openai: options checked
-            model = settings.build_backend(lefthand=True)
+            model = bare.build_backend(lefthand=True)
         except (ValueError, ImportError) as error:
             return _fail(f"the {args.backend} backend could not be set up: {error}")
 
@@ -180,10 +178,10 @@ def _suite(args: argparse.Namespace) -> int:
         if args.backend == "llamacpp":
             chosen = KeepOpen(model)
         elif args.backend == "openai":  # its HTTP client belongs to one event loop: one backend per agent
-            chosen = settings.build_backend(lefthand)
+            chosen = bare.build_backend(lefthand)
         else:
             return rules
-        if args.rules_first:
+        if rules_first:
             from agentic_mpc.agent.backends.rules_first import RulesFirst
 
             return RulesFirst(rules, chosen)
@@ -207,7 +205,9 @@ def _suite(args: argparse.Namespace) -> int:
         wrong = next((t for t in result.turns if not t.right), None)
         why = f"  turn {wrong.turn}: {wrong.detail}" if wrong is not None else ""
         seconds = sum(t.latency_s for t in result.turns)
-        print(f"[{done:3}/{total}] {mark:5} {seconds:6.1f} s  {result.case.id}{why}", file=sys.stderr, flush=True)
+        model_s = [t.model_s for t in result.turns if t.model_s is not None]
+        own = f" (model {sum(model_s):.1f} s)" if model_s else ""
+        print(f"[{done:3}/{total}] {mark:5} {seconds:6.1f} s{own}  {result.case.id}{why}", file=sys.stderr, flush=True)
 
     config = suite_agent_config(settings.model_copy(update={"max_rounds_per_step": args.max_rounds or 2}))
     started = time.perf_counter()
@@ -220,7 +220,7 @@ def _suite(args: argparse.Namespace) -> int:
     finally:
         if args.backend == "llamacpp":
             model.close()
-    about = {"backend": ("rules+" if args.rules_first else "") + args.backend,
+    about = {"backend": ("rules+" if rules_first else "") + args.backend,
              "model": str(args.model_path or args.model or ""),
              "tool_mode": getattr(settings, "effective_tool_mode", ""),
              "threads": args.threads, "max_tokens": args.max_tokens, "max_rounds": config.max_rounds_per_step,

@@ -179,10 +179,17 @@ class RunLoop:
 
     def warm_up(self) -> None:
         """Load the controller's compiled kernels with a throwaway controller (same settings, its own random
-        stream: the run's is untouched), so that a paced run does not start a second behind the wall clock."""
+        stream: the run's is untouched), so that a paced run does not start a second behind the wall clock;
+        and let the agent's model read its system message first (set-up, as loading the model is: a message
+        in the first seconds would otherwise wait for it, tens of seconds on one CPU thread)."""
         spare = FourierMPPI(self.controller.config, seed=0)
         spare.reset(self.controller.mean)
         spare.step(self.world.ego_state, self.slot.current, self.world.surroundings(spare.config.horizon, None))
+        if self.agent is not None and not self.agent.warmed.is_set():
+            started = time.perf_counter()
+            logger.info("the car starts once the agent's model has read its system message")
+            self.agent.warmed.wait(self.agent.config.backend_timeout_s)
+            logger.info("the agent's model was ready after %.1f s", time.perf_counter() - started)
 
     def run(self) -> None:
         """Step until the end of the run, the goal (if it stops there) or :attr:`stop`."""

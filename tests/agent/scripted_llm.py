@@ -6,7 +6,9 @@ Each POST to ``/v1/chat/completions`` takes the next scripted answer:
 - ``Raw(status, body)``: any HTTP status and body (malformed responses);
 - ``Delay(seconds, answer)``: wait, then answer (a model that thinks, or one that times out).
 
-When the script runs out it answers text without tool calls. Requests are kept in ``requests``.
+When the script runs out it answers text without tool calls. Requests are kept in ``requests``; a warm-up
+(the agent's one-token request that has the model read the system message, ``max_tokens: 1``) is answered
+without taking a scripted answer and kept in ``warmups``.
 """
 
 from __future__ import annotations
@@ -45,9 +47,13 @@ def text(content: str) -> dict[str, Any]:
 
 
 class ScriptedLLM:
-    def __init__(self, script: list[Any] | None = None) -> None:
+    def __init__(self, script: list[Any] | None = None, timings: dict[str, Any] | None = None,
+                 warmup_s: float = 0.0) -> None:
         self.script = list(script or [])
+        self.warmup_s = warmup_s  # how long reading the system message takes it
+        self.timings = timings  # added to every completion as llama.cpp's server reports its own cost
         self.requests: list[dict[str, Any]] = []
+        self.warmups: list[dict[str, Any]] = []
         self.headers: list[dict[str, str]] = []
         self.request_times: list[float] = []
         self._lock = threading.Lock()
@@ -60,6 +66,13 @@ class ScriptedLLM:
             def do_POST(self) -> None:  # noqa: N802 - http.server's naming
                 length = int(self.headers.get("Content-Length", 0))
                 body = json.loads(self.rfile.read(length) or b"{}")
+                if body.get("max_tokens") == 1:  # the agent's warm-up: not a step's answer
+                    time.sleep(owner.warmup_s)
+                    with owner._lock:
+                        owner.warmups.append(body)
+                    payload = json.dumps({"choices": [{"index": 0, "message": text("."), "finish_reason": "length"}]})
+                    self._send(200, payload)
+                    return
                 with owner._lock:
                     owner.requests.append(body)
                     owner.headers.append(dict(self.headers))
@@ -77,7 +90,11 @@ class ScriptedLLM:
                     payload = json.dumps({
                         "id": "chatcmpl-scripted", "object": "chat.completion", "model": body.get("model"),
                         "choices": [{"index": 0, "message": answer, "finish_reason": "tool_calls"}],
+                        **({"timings": owner.timings} if owner.timings else {}),
                     })
+                self._send(status, payload)
+
+            def _send(self, status: int, payload: str) -> None:
                 data = payload.encode()
                 try:
                     self.send_response(status)

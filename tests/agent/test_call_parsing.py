@@ -14,7 +14,13 @@ from agentic_mpc.agent.backends.base import ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX, UNPARSED, calls_from_text, load_json_like
 from agentic_mpc.agent.backends.openai import OpenAIBackend
 from agentic_mpc.agent.settings import OpenAISettings
-from agentic_mpc.agent.backends.structured import STRUCTURED_INSTRUCTION, answer_schema, render_messages
+from agentic_mpc.agent.backends.structured import (
+    REPLY_AFTER_RESULTS_CHARS,
+    REPLY_MAX_CHARS,
+    STRUCTURED_INSTRUCTION,
+    answer_schema,
+    render_messages,
+)
 from agentic_mpc.agent.messages import Message, ToolCall
 
 V_REF = {"type": "number", "minimum": 0.0, "maximum": 25.0, "title": "V Ref", "description": "m/s"}
@@ -177,6 +183,10 @@ def test_the_json_schema_request_and_its_history():
                                     '(Answer {"reply": ...} if nothing else must change.)'},
         {"role": "assistant", "content": '{"reply": "Pulled over."}'},
     ]
+    # answering tool results: the same calls, a shorter reply (it only confirms what the results say)
+    after = backend.request_body(history[:4], TOOLS)["response_format"]["json_schema"]["schema"]
+    assert after["oneOf"][:-1] == answer_schema(TOOLS)["oneOf"][:-1]
+    assert after["oneOf"][-1]["properties"]["reply"]["maxLength"] == REPLY_AFTER_RESULTS_CHARS < REPLY_MAX_CHARS
     reply = backend.parse_message({"content": '{"name": "run_left_lane", "arguments": {"v_ref": 0}}'}, NAMES)
     assert [(c.name, c.arguments) for c in reply.tool_calls] == LEFT_0 and reply.text == ""
     assert backend.parse_message({"content": '{"reply": "Nice day."}'}, NAMES).text == "Nice day."

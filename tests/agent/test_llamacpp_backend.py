@@ -49,6 +49,12 @@ def test_a_scenario_can_choose_it(tmp_path):
     settings = agent_settings(backend="llamacpp", model=str(fake), threads=2, ctx_size=1024)
     with pytest.raises(ModelFileError, match="llama.cpp could not load"):
         settings.build_backend(lefthand=True)
+    # a small model in process gets the rules in front of it unless told otherwise (docs/llm-backends.md)
+    model_alone = agent_settings(backend="llamacpp", model=str(fake), rules_first=False)
+    assert settings.rules_first and not model_alone.rules_first
+    assert not agent_settings(backend="openai").rules_first  # an endpoint may serve a strong model
+    # the history is kept inside the context, less one answer
+    assert settings.context_limit_tokens == 1024 - settings.max_tokens
 
 
 def test_a_streamed_answer_is_assembled_into_one_message():

@@ -41,7 +41,12 @@ def test_a_well_behaved_model_gives_validated_calls_and_sees_their_results(loop,
     assert [m["role"] for m in second["messages"]] == ["system", "user", "assistant", "tool"]
     assert second["messages"][2]["tool_calls"][0]["function"] == {"name": "run_left_lane", "arguments": '{"v_ref": 0}'}
     assert second["messages"][3]["tool_call_id"] == "c1"
-    assert json.loads(second["messages"][3]["content"])["attached"][1]["lane"] == "left"
+    # the model reads the result in one line: what applied and how it differs from the initial specification
+    assert second["messages"][3]["content"] == (
+        "run_left_lane(v_ref=0) applied; differences from the initial specification: path_tracking: lane=left "
+        "(initially center), v_ref_mps=0 (initially 15).")
+    (warm_up,) = llm.warmups  # the system message was read before the message came, with the same tools
+    assert warm_up["messages"] == first["messages"][:1] and warm_up["tools"] == first["tools"]
 
 
 MALFORMED = [

@@ -57,6 +57,9 @@ class _KeepOpen:
     async def complete(self, history, tools) -> BackendReply:
         return await self.backend.complete(history, tools)
 
+    async def warm(self, history, tools):
+        return await self.backend.warm(history, tools)
+
     async def aclose(self) -> None:
         pass
 
@@ -168,6 +171,23 @@ def test_the_agent_with_the_in_process_model_acts_through_mcp_and_records_it(in_
         assert loop.slot.version >= 1
 
 
+def test_the_system_message_is_read_once_before_the_first_message(in_process, tmp_path):
+    """Warm-up: the model reads the system message when the agent starts; the first message's step then
+    processes only its own tokens (the server reports the rest as cached), and says what they cost."""
+    config = AgentConfig(max_rounds_per_step=1, transcript_path=tmp_path / "transcript.jsonl")
+    with plain_loop(paper_start_config()) as loop, Agent(_KeepOpen(in_process), loop.server, config) as agent:
+        assert agent.warmed.wait(120)
+        (warm_up,) = agent.transcript.events("warm_up")
+        report = agent.deliver(MESSAGES[2]).result(120)
+    system_tokens = warm_up["prompt_tokens"] + warm_up["cached_tokens"]
+    assert system_tokens > 500  # the system message, tools and road (about 1,300 tokens for SmolLM2)
+    usage = report.usage
+    assert usage.answers == 1 and usage.cached_tokens >= system_tokens - 8  # the chat template's last tokens differ
+    assert 0 < usage.prompt_tokens < 400 and usage.generated_tokens > 0 and usage.model_s > 0
+    (end,) = agent.transcript.events("step_end")
+    assert end["prompt_tokens"] == usage.prompt_tokens and end["model_s"] > 0 and end["wall_s"] >= end["model_s"]
+
+
 def test_an_abandoned_answer_stops_generating(in_process):
     """The agent's timeout cancels the answer: llama.cpp stops at the next token, the next call is not held up.
     (Last in this module: its prompt replaces the system prompt in the model's cache.)"""
@@ -195,7 +215,8 @@ def test_a_lockstep_scenario_2_run_with_the_model_completes_with_its_calls_in_ev
 
     scenario = load_scenario(REPO / "scenarios/paper_emergency_response.yaml").variant("yield")
     scenario = with_agent_settings(scenario.model_copy(update={"duration_s": 6.0}), [
-        ("backend", "llamacpp"), ("model", str(MODEL)), ("max_tokens", str(ANSWER_TOKENS)), ("threads", "1")])
+        ("backend", "llamacpp"), ("model", str(MODEL)), ("max_tokens", str(ANSWER_TOKENS)), ("threads", "1"),
+        ("rules_first", "false")])  # the model itself, not the rules in front of it
     summary = run_scenario(scenario, tmp_path)
     assert summary["status"] == "ok" and summary["steps"] >= 140
     events = pd.read_csv(tmp_path / "events.csv")

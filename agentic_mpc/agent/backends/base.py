@@ -33,11 +33,50 @@ class ToolSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class ModelUsage:
+    """What one answer cost the model, as its server reports it (llama.cpp's ``timings``; other
+    OpenAI-compatible servers report tokens in ``usage`` and no times: then the times are None)."""
+
+    prompt_tokens: int = 0
+    """Prompt tokens the model processed for this answer (not those it had cached)."""
+    cached_tokens: int = 0
+    """Prompt tokens taken from the server's cache."""
+    generated_tokens: int = 0
+    prompt_s: float | None = None
+    generation_s: float | None = None
+
+    @property
+    def model_s(self) -> float | None:
+        """The model's own time for the answer (prompt processing + generation), if the server said."""
+        if self.prompt_s is None and self.generation_s is None:
+            return None
+        return (self.prompt_s or 0.0) + (self.generation_s or 0.0)
+
+    @classmethod
+    def from_response(cls, data: dict[str, Any]) -> ModelUsage | None:
+        """From a chat completion: llama.cpp's ``timings`` (tokens and milliseconds), else ``usage``."""
+        timings = data.get("timings")
+        if isinstance(timings, dict) and isinstance(timings.get("prompt_n"), int | float):
+            def seconds(key: str) -> float | None:
+                value = timings.get(key)
+                return float(value) / 1000.0 if isinstance(value, int | float) else None
+            return cls(int(timings.get("prompt_n") or 0), int(timings.get("cache_n") or 0),
+                       int(timings.get("predicted_n") or 0), seconds("prompt_ms"), seconds("predicted_ms"))
+        usage = data.get("usage")
+        if isinstance(usage, dict) and isinstance(usage.get("prompt_tokens"), int | float):
+            details = usage.get("prompt_tokens_details")
+            cached = int(details.get("cached_tokens") or 0) if isinstance(details, dict) else 0
+            return cls(int(usage["prompt_tokens"]) - cached, cached, int(usage.get("completion_tokens") or 0))
+        return None
+
+
+@dataclass(frozen=True, slots=True)
 class BackendReply:
-    """An agent message: text and tool invocation requests (possibly none)."""
+    """An agent message: text and tool invocation requests (possibly none), and what it cost the model."""
 
     text: str
     tool_calls: tuple[ToolCall, ...] = ()
+    usage: ModelUsage | None = None
 
 
 class BackendError(RuntimeError):

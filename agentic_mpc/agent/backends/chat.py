@@ -17,8 +17,9 @@ import json
 from collections.abc import Sequence
 from typing import Any
 
-from agentic_mpc.agent.backends.base import BackendError, BackendReply, ToolSpec
+from agentic_mpc.agent.backends.base import BackendError, BackendReply, ModelUsage, ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX, calls_from_text, parse_arguments
+from agentic_mpc.agent.backends.context import ContextWindow
 from agentic_mpc.agent.backends.structured import render_messages, response_format
 from agentic_mpc.agent.messages import Message, ToolCall
 from agentic_mpc.agent.settings import ChatSettings
@@ -34,14 +35,23 @@ class ChatBackend:
     def __init__(self) -> None:
         self._ids = itertools.count(1)
         self._text_ids = itertools.count(1)
+        self._window: ContextWindow | None = None
+
+    @property
+    def window(self) -> ContextWindow:
+        """What part of the history fits the model's context (agent/backends/context.py)."""
+        if self._window is None:
+            self._window = ContextWindow(self.config.context_limit_tokens)
+        return self._window
 
     def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> dict[str, Any]:
         body: dict[str, Any] = {
-            "messages": render_messages(history, self.config.effective_tool_mode),
+            "messages": render_messages(self.window.fit(history), self.config.effective_tool_mode),
             "temperature": self.config.temperature,
         }
         if self.config.effective_tool_mode == "json_schema":
-            body["response_format"] = response_format(tools)
+            after_results = bool(history) and history[-1].role == "tool"
+            body["response_format"] = response_format(tools, after_results=after_results)
         elif tools:
             body["tools"] = [t.to_openai() for t in tools]
             body["tool_choice"] = "auto"
@@ -62,7 +72,14 @@ class ChatBackend:
                 raise TypeError("message is not an object")
         except (KeyError, IndexError, TypeError) as error:
             raise BackendError(f"{self.name}: no chat completion ({error!r}): {json.dumps(data)[:300]!r}") from error
-        return self.parse_message(message, [t.name for t in tools])
+        reply = self.parse_message(message, [t.name for t in tools])
+        return BackendReply(reply.text, reply.tool_calls, ModelUsage.from_response(data))
+
+    async def warm(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> ModelUsage | None:
+        """Have the model read ``history`` (the system message) into its prompt cache: a request for one
+        token, with the same tools and format as every later request, so that they share its tokens."""
+        body = {**self.request_body(history, tools), "max_tokens": 1}
+        return ModelUsage.from_response(await self.send(body))
 
     def parse_message(self, message: dict[str, Any], tool_names: Sequence[str] = ()) -> BackendReply:
         """An OpenAI ``message`` object to an agent message; malformed tool calls are kept, marked with why.

@@ -128,6 +128,7 @@ def assemble_stream(chunks: list[dict[str, Any]]) -> dict[str, Any]:
     content: list[str] = []
     calls: dict[int, dict[str, Any]] = {}
     finish = None
+    timings = None
     for chunk in chunks:
         if not isinstance(chunk, dict) or "error" in chunk:
             error = chunk.get("error") if isinstance(chunk, dict) else chunk
@@ -145,9 +146,13 @@ def assemble_stream(chunks: list[dict[str, Any]]) -> dict[str, Any]:
                 call["function"]["name"] += function.get("name") or ""
                 call["function"]["arguments"] += function.get("arguments") or ""
             finish = choice.get("finish_reason") or finish
+        timings = chunk.get("timings") or timings  # on the last chunk: the model's own tokens and times
     if not chunks:
         raise BackendError("llama.cpp gave no answer")
     message: dict[str, Any] = {"role": "assistant", "content": "".join(content) or None}
     if calls:
         message["tool_calls"] = [calls[index] for index in sorted(calls)]
-    return {"choices": [{"index": 0, "message": message, "finish_reason": finish}]}
+    completion: dict[str, Any] = {"choices": [{"index": 0, "message": message, "finish_reason": finish}]}
+    if timings is not None:
+        completion["timings"] = timings
+    return completion

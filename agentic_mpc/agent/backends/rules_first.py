@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from agentic_mpc.agent.backends.base import Backend, BackendReply, ToolSpec
+from agentic_mpc.agent.backends.base import Backend, BackendReply, ModelUsage, ToolSpec
 from agentic_mpc.agent.backends.rules import RulesBackend
 from agentic_mpc.agent.backends.rules_state import driving_states
 from agentic_mpc.agent.messages import Message
@@ -46,6 +46,11 @@ class RulesFirst:
         if self._model_step:
             return await self.model.complete(history, tools)
         return await self.rules.complete(history, tools)
+
+    async def warm(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> ModelUsage | None:
+        """The model's prompt cache (the rules need none)."""
+        warm = getattr(self.model, "warm", None)
+        return None if warm is None else await warm(history, tools)
 
     async def aclose(self) -> None:
         await self.model.aclose()

@@ -28,6 +28,9 @@ from agentic_mpc.agent.settings import ToolMode
 
 TOOL_MODES: tuple[str, ...] = ("native", "json_schema")
 REPLY_MAX_CHARS = 300
+REPLY_AFTER_RESULTS_CHARS = 80
+"""A reply right after tool results only confirms what they say: kept short, since each generated token costs
+a small model on a CPU about as much as reading four (docs/llm-backends.md, "An answer in time")."""
 
 STRUCTURED_INSTRUCTION = (
     "Answer format: exactly one JSON object and nothing else.\n"
@@ -41,8 +44,9 @@ STRUCTURED_INSTRUCTION = (
 _AFTER_RESULTS = '\n(Answer {"reply": ...} if nothing else must change.)'
 
 
-def answer_schema(tools: Sequence[ToolSpec]) -> dict[str, Any]:
-    """The JSON schema of one answer: one of the tools with its arguments, or a reply without a call."""
+def answer_schema(tools: Sequence[ToolSpec], reply_chars: int = REPLY_MAX_CHARS) -> dict[str, Any]:
+    """The JSON schema of one answer: one of the tools with its arguments, or a reply of at most
+    ``reply_chars`` without a call."""
     options: list[dict[str, Any]] = []
     for tool in tools:
         parameters = tool.to_openai()["function"]["parameters"]
@@ -56,17 +60,18 @@ def answer_schema(tools: Sequence[ToolSpec]) -> dict[str, Any]:
         })
     options.append({
         "type": "object",
-        "properties": {"reply": {"type": "string", "maxLength": REPLY_MAX_CHARS}},
+        "properties": {"reply": {"type": "string", "maxLength": reply_chars}},
         "required": ["reply"],
         "additionalProperties": False,
     })
     return {"oneOf": options}
 
 
-def response_format(tools: Sequence[ToolSpec]) -> dict[str, Any]:
-    """The chat-completions ``response_format`` of the structured mode."""
-    return {"type": "json_schema",
-            "json_schema": {"name": "agent_answer", "schema": answer_schema(tools), "strict": True}}
+def response_format(tools: Sequence[ToolSpec], after_results: bool = False) -> dict[str, Any]:
+    """The chat-completions ``response_format`` of the structured mode (``after_results``: the answer to tool
+    results, whose reply is kept short)."""
+    schema = answer_schema(tools, REPLY_AFTER_RESULTS_CHARS if after_results else REPLY_MAX_CHARS)
+    return {"type": "json_schema", "json_schema": {"name": "agent_answer", "schema": schema, "strict": True}}
 
 
 def _written(call: ToolCall) -> str:
