@@ -133,7 +133,7 @@ async def warm_up(backend: Backend, system: Sequence[Message], tools: Sequence[T
         return None
     started = time.perf_counter()
     try:
-        usage = await asyncio.wait_for(warm(system, tools), config.backend_timeout_s)
+        usage = await asyncio.wait_for(warm(system, tools), config.warm_up_timeout_s)
     except Exception as error:  # noqa: BLE001 - see the docstring
         detail = str(error) or type(error).__name__
         logger.warning("warming the model's prompt cache failed: %s", detail)

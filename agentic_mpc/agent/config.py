@@ -23,6 +23,8 @@ class AgentConfig(AgentRunSettings):
     backend_attempts: int = Field(3, ge=1, le=20, description="tries per backend answer before the step ends")
     backend_timeout_s: float = Field(125.0, gt=0, description="one backend answer, at most (a language model's "
                                                                "settings: its timeout_s + 5 s)")
+    warm_up_timeout_s: float = Field(600.0, gt=0, description="reading the system message once at the start, at "
+                                     "most (a native-mode prompt of ~2900 tokens takes ~2 min on one thread)")
     retry_backoff_s: float = Field(0.5, ge=0)
     tool_timeout_s: float = Field(10.0, gt=0)
     max_message_chars: int = Field(4000, ge=1)

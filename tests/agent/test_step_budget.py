@@ -120,3 +120,12 @@ def test_a_paced_run_starts_once_the_model_has_read_its_system_message():
             assert not loop.agent.warmed.is_set()
             loop.warm_up()
             assert loop.agent.warmed.is_set() and len(llm.warmups) == 1 and loop.world.time_s == 0.0
+
+
+def test_reading_a_long_system_message_is_not_cut_at_one_answers_timeout(loop, server, tmp_path):
+    """A native-mode system message takes minutes on one thread: the warm-up has its own, longer limit."""
+    config = AgentConfig(backend_timeout_s=0.5, warm_up_timeout_s=30.0, transcript_path=tmp_path / "t.jsonl")
+    with ScriptedLLM(warmup_s=1.0, timings=LLAMA_TIMINGS) as llm, Agent(backend(llm), server, config) as agent:
+        assert agent.warmed.wait(30)
+        (warm,) = agent.transcript.events("warm_up")
+    assert "error" not in warm and warm["wall_s"] >= 1.0
