@@ -192,4 +192,8 @@ def _signal_group(process: subprocess.Popen | ForkedRun, signum: int) -> None:
     try:
         os.killpg(process.pid, signum)
     except (ProcessLookupError, PermissionError):
-        pass
+        # no such group yet: a run forked a moment ago that has not called setsid; signal the process itself
+        try:
+            os.kill(process.pid, signum)
+        except (ProcessLookupError, PermissionError):
+            pass
