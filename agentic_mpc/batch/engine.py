@@ -122,8 +122,8 @@ def _interrupt_on_sigterm() -> Iterator[None]:
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
-    # a parent may have started us with Ctrl-C blocked or ignored (both survive exec; a process that ran
-    # llama.cpp's threads, for one): a batch must stop on it
+    # a parent may have started us with Ctrl-C blocked or ignored (a signal mask and SIG_IGN both survive
+    # exec): a batch must stop on it
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
     if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
