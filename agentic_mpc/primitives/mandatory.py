@@ -39,6 +39,7 @@ from agentic_mpc.primitives.base import (
     FloatArray,
     FusedTerms,
     Leader,
+    MovingDisc,
     Primitive,
     Rollouts,
     StepContext,
@@ -157,6 +158,30 @@ def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
     return tx * (lx - float(x_m)) + ty * (ly - float(y_m))
 
 
+def _turned_radius_m(disc: MovingDisc, r: Rollouts) -> FloatArray | float:
+    """The disc's radius with the ego turned against the heading its cover assumes (``MovingDisc.headings``):
+    its corner reaches ``a |sin psi| - b (1 - |cos psi|)`` further, written as the fused kernel writes it."""
+    half_length, half_width = disc.ego_half_extents_m
+    if disc.headings is None or (half_length == 0.0 and half_width == 0.0):
+        return disc.radius_m
+    hx, hy = disc.headings[:, 0:1], disc.headings[:, 1:2]
+    c, s = np.cos(r.phi_rad), np.sin(r.phi_rad)
+    cos_rel, sin_rel = c * hx + s * hy, s * hx - c * hy
+    return disc.radius_m + np.maximum(0.0, half_length * np.abs(sin_rel) - half_width * (1.0 - np.abs(cos_rel)))
+
+
+class _AlignedHeadings(dict):
+    """(H, 2) rows of (1, 0) per horizon, made once: the fused kernel reads a heading for every disc, and a
+    disc without one ignores it (its half extents are 0)."""
+
+    def __missing__(self, horizon: int) -> FloatArray:
+        value = self[horizon] = np.tile([1.0, 0.0], (horizon, 1))
+        return value
+
+
+_ALIGNED = _AlignedHeadings()
+
+
 @dataclass(frozen=True, slots=True)
 class PreparedMandatory:
     spec: Mandatory
@@ -186,7 +211,7 @@ class PreparedMandatory:
         total += p.brake_effort_weight / h * np.sum(r.brake**2, axis=0)
         for disc in self.discs:
             d2 = (r.x_m - disc.centres[:, 0:1]) ** 2 + (r.y_m - disc.centres[:, 1:2]) ** 2
-            r2 = disc.radius_m**2
+            r2 = _turned_radius_m(disc, r) ** 2
             inside = d2 < r2
             total += p.vehicle_clearance_weight / h * np.sum(inside * (2.0 - d2 / r2), axis=0)
         for edge, side in self.edges:
@@ -232,7 +257,11 @@ class PreparedMandatory:
             p.brake_effort_weight / h,
         )
         for disc in self.discs:
-            terms.discs.append((disc.centres, disc.radius_m, p.vehicle_clearance_weight / h))
+            if disc.headings is None:
+                headings, extents = _ALIGNED[h], (0.0, 0.0)
+            else:
+                headings, extents = disc.headings, disc.ego_half_extents_m
+            terms.discs.append((disc.centres, headings, disc.radius_m, p.vehicle_clearance_weight / h, *extents))
         for edge, side in self.edges:
             terms.edges.append((edge.points, edge.tangents, side, p.road_edge_margin_m, p.road_edge_weight / h))
         terms.time_gap = (p.time_gap_s, p.standstill_gap_m, p.time_gap_weight / h, p.time_gap_quadratic_m,

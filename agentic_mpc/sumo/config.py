@@ -23,6 +23,10 @@ class SurroundingsConfig(FrozenConfig):
     clearance_margin_m: float = Field(
         0.5, ge=0, description="disc radius = (W + W_ego)/2 + margin; also how far the cover overshoots at corners"
     )
+    heading_aware_covers: bool = Field(
+        True, description="a cover grows by how much further the ego's corner reaches when it is turned against the "
+        "vehicle (its half length x |sin| of the angle); False: the covers assume the ego aligned"
+    )
     max_discs_per_vehicle: int = Field(8, ge=1, le=16)
     lane_entry_margin_m: float | None = Field(
         0.4, ge=0, description="cover at least half the lane width + this sideways (None: physical size only)"

@@ -66,7 +66,7 @@ def _points(xy, s_table, tangents, inner_s, length, s, points, tangents_out):  #
 
 
 @numba.njit(**_JIT)
-def _discs(xy, s_table, tangents, inner_s, length, steps, rows, out):  # type: ignore[no-untyped-def]
+def _discs(xy, s_table, tangents, inner_s, length, steps, rows, out, headings):  # type: ignore[no-untyped-def]
     for n in range(rows.shape[0]):
         speed, lane_s, lateral, offset = rows[n, 0], rows[n, 1], rows[n, 2], rows[n, 3]
         for k in range(steps.shape[0]):
@@ -79,6 +79,8 @@ def _discs(xy, s_table, tangents, inner_s, length, steps, rows, out):  # type: i
                 y = y + offset * ty
             out[n, k, 0] = x
             out[n, k, 1] = y
+            headings[n, k, 0] = tx
+            headings[n, k, 1] = ty
 
 
 @numba.njit(**_JIT)
@@ -143,13 +145,14 @@ def points_at(line: Polyline, s_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return points, tangents
 
 
-def disc_centres(line: Polyline, steps: np.ndarray, rows: np.ndarray) -> np.ndarray:
+def disc_centres(line: Polyline, steps: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centres (discs, H, 2) of discs around vehicles on ``line``, one row of ``rows`` each: (speed, lane_s,
-    lateral offset, offset along the heading). Stage k: the lane point at ``lane_s + speed * steps[k]``, plus
-    the lateral offset along the lane's normal, plus the offset along its tangent (each only if non-zero)."""
-    out = np.empty((rows.shape[0], steps.shape[0], 2))
-    _discs(line.xy, line.s, line.tangents, line.inner_s, line.length_m, steps, rows, out)
-    return out
+    lateral offset, offset along the heading), and the lane's unit tangents there (discs, H, 2). Stage k: the lane
+    point at ``lane_s + speed * steps[k]``, plus the lateral offset along the lane's normal, plus the offset along
+    its tangent (each only if non-zero)."""
+    out, headings = np.empty((rows.shape[0], steps.shape[0], 2)), np.empty((rows.shape[0], steps.shape[0], 2))
+    _discs(line.xy, line.s, line.tangents, line.inner_s, line.length_m, steps, rows, out, headings)
+    return out, headings
 
 
 def side_lines(line: Polyline, start_m: float, speed_mps: float, steps: np.ndarray, left_m: float, right_m: float

@@ -126,6 +126,8 @@ class SurroundingsBuilder:
         self.road = road
         self.ego_length_m = ego_length_m
         self.ego_width_m = ego_width_m
+        # J0's covers assume the ego aligned with each vehicle; turned, its corners reach further (MovingDisc)
+        self._ego_half_extents_m = (0.5 * ego_length_m, 0.5 * ego_width_m) if config.heading_aware_covers else (0.0, 0.0)
         self.horizon = horizon
         self.dt_s = dt_s
         self.config = config
@@ -257,10 +259,11 @@ class SurroundingsBuilder:
         for vehicle, cover, headway in off_road:
             heading = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
             centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * heading
-            heading = np.broadcast_to(heading, centres.shape)
+            headings = np.ascontiguousarray(np.broadcast_to(heading, centres.shape))
+            heading = headings
             for offset in self._offsets(vehicle, cover, headway):
                 discs.append(MovingDisc(centres + offset * heading if offset else np.ascontiguousarray(centres),
-                                        cover.radius_m))
+                                        cover.radius_m, headings, self._ego_half_extents_m))
         return tuple(discs)
 
     def _lane_discs(self, discs: list[MovingDisc],
@@ -285,8 +288,9 @@ class SurroundingsBuilder:
                 for offset in self._offsets(vehicle, cover, headway):
                     rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset))
                     radii.append(cover.radius_m)
-            centres = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
-            discs.extend(map(MovingDisc, centres, radii))
+            centres, headings = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
+            extents = self._ego_half_extents_m
+            discs.extend(MovingDisc(c, r, h, extents) for c, r, h in zip(centres, radii, headings, strict=True))
 
     def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:
         """The discs' offsets along the vehicle's heading; a leader's row extended backwards by ``headway``."""

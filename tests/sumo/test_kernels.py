@@ -67,8 +67,8 @@ def test_disc_centres_are_the_numpy_sums(line):
         rng.uniform(0.0, 30.0, n), rng.uniform(-20.0, line.length_m + 20.0, n),
         rng.choice([0.0, 0.0, -0.7, 1.3, np.nan], n), rng.choice([0.0, -2.5, 1.1, 3.75], n),
     ])
-    got = kernels.disc_centres(line, STEPS, rows)
-    for row, centres in zip(rows.tolist(), got, strict=True):
+    got, got_headings = kernels.disc_centres(line, STEPS, rows)
+    for row, centres, headings in zip(rows.tolist(), got, got_headings, strict=True):
         speed, lane_s, lateral, offset = row
         expected, heading = line.at(lane_s + speed * STEPS)  # what the surroundings did one vehicle at a time
         if lateral:
@@ -76,6 +76,7 @@ def test_disc_centres_are_the_numpy_sums(line):
         if offset:
             expected = expected + offset * heading
         assert _same(centres, expected)
+        assert _same(headings, heading)  # the lane's heading at the disc, for the ego-heading-aware radius
 
 
 @pytest.mark.parametrize("line", LINES, ids=range(len(LINES)))
