@@ -5,7 +5,8 @@ collisions with the ego at fault, and, where the agent resumed after a stop, whe
     python benchmarks/incident_outcomes.py out/batch [more batch dirs]
 
 "Reaching the queue" of a stopped car: the first time the ego is slower than 2 m/s within 80 m behind it (a car
-passed without slowing reached nothing: 0 s). Reads each run's summary.csv, obstacle_passes.csv and
+passed without slowing reached nothing: 0 s). A run that ends less than 60 s after reaching a queue it has not
+yet passed is undecided: counted in ``undecided``, left out of ``passed_all_60s``. Reads each run's summary.csv, obstacle_passes.csv and
 trajectory.csv; writes nothing.
 """
 
@@ -37,20 +38,23 @@ def run_outcome(run_dir: Path) -> dict:
     passes = pd.read_csv(passes_file)
     trajectory = pd.read_csv(run_dir / "trajectory.csv", usecols=["time_s", "road_s_m", "v_mps"])
     met = passes[passes["side"] != "behind at start"]
-    worst = 0.0
+    worst, censored, end_s = 0.0, False, float(trajectory["time_s"].iloc[-1])
     for _, obstacle in met.iterrows():
         near = trajectory[(trajectory["road_s_m"] > obstacle["road_s_m"] - QUEUE_WINDOW_M)
                           & (trajectory["road_s_m"] < obstacle["road_s_m"]) & (trajectory["v_mps"] < QUEUE_SPEED_MPS)]
         reached = float(near["time_s"].iloc[0]) if len(near) else math.nan
         passed = float(obstacle["passed_at_s"])
         if math.isnan(passed):
-            if len(near) or trajectory["road_s_m"].iloc[-1] > obstacle["road_s_m"] - QUEUE_WINDOW_M:
-                worst = math.inf  # met it and never got past
+            if len(near) and end_s - reached >= PASS_WITHIN_S:
+                worst = math.inf  # met it and did not get past within the time
+            elif len(near) or trajectory["road_s_m"].iloc[-1] > obstacle["road_s_m"] - QUEUE_WINDOW_M:
+                censored = True  # the run ended less than 60 s after it reached the queue: undecided
             continue
         worst = max(worst, 0.0 if math.isnan(reached) else passed - reached)
     row["stopped_cars_met"] = len(met)
     row["worst_pass_s"] = worst
-    row["passed_all_within_60s"] = worst <= PASS_WITHIN_S
+    row["undecided"] = censored and worst <= PASS_WITHIN_S
+    row["passed_all_within_60s"] = math.nan if row["undecided"] else float(worst <= PASS_WITHIN_S)
     return row
 
 
@@ -61,7 +65,8 @@ def main(batch_dirs: list[str]) -> None:
                     "stuck_s_max": ("stuck_s", "max"), "accel_rms": ("accel_rms_mps2", "mean"),
                     "jerk_rms": ("jerk_rms_mps3", "mean")}
     if "passed_all_within_60s" in table:
-        aggregations["passed_all_60s"] = ("passed_all_within_60s", "mean")
+        aggregations["passed_all_60s"] = ("passed_all_within_60s", "mean")  # of the decided runs
+        aggregations["undecided"] = ("undecided", "sum")
         aggregations["worst_pass_s_max"] = ("worst_pass_s", "max")
     if table["resume_to_v_ref_s"].notna().any():
         table["resumed_to_v_ref"] = table["resume_to_v_ref_s"].apply(lambda v: math.nan if pd.isna(v) else math.isfinite(v))

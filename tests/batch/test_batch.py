@@ -224,7 +224,8 @@ def test_progress_bar_counts_and_estimates():
 
 
 def start_cli(tmp_path: Path, file: Path, out: Path, trials: int, gate: Path, log: Path) -> subprocess.Popen:
-    env = {**os.environ, GATE_ENV: str(gate), RUN_LOG_ENV: str(log), "PYTHONPATH": str(REPO)}
+    # PYTHONFAULTHANDLER: a batch that does not stop can be made to print every thread's stack (below)
+    env = {**os.environ, GATE_ENV: str(gate), RUN_LOG_ENV: str(log), "PYTHONPATH": str(REPO), "PYTHONFAULTHANDLER": "1"}
     return subprocess.Popen(
         [sys.executable, "-m", "agentic_mpc", "batch", str(file), "--trials", str(trials), "--workers", "2",
          "--out", str(out), "--runner", f"{RUNNERS}:gated_run"],
@@ -252,6 +253,19 @@ def alive(pid: int) -> bool:
         return False
 
 
+def stacks_of(batch: subprocess.Popen) -> str:
+    """The batch's threads' stacks (faulthandler on SIGABRT), with the processes it started, for a failure
+    that happened once in a while in the full suite and never alone."""
+    tree = subprocess.run(["ps", "-o", "pid,ppid,pgid,stat,etime,args", "--ppid", str(batch.pid)],
+                          capture_output=True, text=True).stdout
+    batch.send_signal(signal.SIGABRT)
+    try:
+        _, stderr = batch.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        stderr = "(no stacks within 10 s of SIGABRT)"
+    return f"{stderr[-6000:]}\nits children:\n{tree}"
+
+
 def test_ctrl_c_stops_the_runs_keeps_what_finished_and_the_rerun_resumes(tmp_path):
     file, out, gate, log = scenario_yaml(tmp_path, "plain"), tmp_path / "out", tmp_path / "gate", tmp_path / "ran.txt"
     gate.mkdir()
@@ -261,7 +275,10 @@ def test_ctrl_c_stops_the_runs_keeps_what_finished_and_the_rerun_resumes(tmp_pat
         pids = [int((gate / f"started-{s}").read_text()) for s in (2, 3)]
         interrupted_at = time.monotonic()
         batch.send_signal(signal.SIGINT)
-        stdout, stderr = batch.communicate(timeout=20)
+        try:
+            stdout, stderr = batch.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"the batch did not stop within 20 s of Ctrl-C; where it was:\n{stacks_of(batch)}")
         stop_s = time.monotonic() - interrupted_at
     finally:
         (gate / "open").touch()

@@ -29,14 +29,12 @@ def _no_simulation_left_open():
 
 
 @pytest.fixture
-def report(capsys):
-    """Print measured numbers into the test output even without ``-s``."""
+def report(request):
+    """Measured numbers for the test output even without ``-s``: kept with the test's report and printed in the
+    summary's "measured" section (tests/conftest.py), also when the tests run in several processes."""
 
     def emit(*lines: str) -> None:
-        with capsys.disabled():
-            for line in lines:
-                print(f"\n    {line}", end="")
-            print()
+        request.node.user_properties.extend(("measured", line) for line in lines)
 
     return emit
 
