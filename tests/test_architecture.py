@@ -80,7 +80,7 @@ def test_no_two_packages_import_each_other():
 def test_only_the_bridge_imports_libsumo():
     importers = sorted(str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
                        if "libsumo" in {n.split(".")[0] for n in _all_imports(p)})
-    assert importers == ["sumo/bridge.py"]
+    assert importers and all(name.startswith("sumo/bridge/") for name in importers), importers
 
 
 def _all_imports(path: Path) -> set[str]:
@@ -94,9 +94,8 @@ def _all_imports(path: Path) -> set[str]:
 
 
 def test_modules_stay_small():
-    # about 400 lines, one job each; the libsumo bridge is the one exception (every line there talks to SUMO;
-    # what it decides is in the modules beside it)
-    limits = {"sumo/bridge.py": 590}
+    # about 400 lines, one job each
+    limits: dict[str, int] = {}
     big = [f"{p.relative_to(PACKAGE)}: {n} lines" for p in PACKAGE.rglob("*.py")
            if (n := len(p.read_text(encoding="utf-8").splitlines())) > limits.get(str(p.relative_to(PACKAGE)), 420)]
     assert not big, "\n".join(big)

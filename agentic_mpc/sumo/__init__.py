@@ -1,6 +1,6 @@
 """The SUMO world: SUMO drives the traffic, our controller and bicycle model drive the ego.
 
-- :mod:`~agentic_mpc.sumo.bridge`: the only module that imports libsumo (conventions converted there);
+- :mod:`~agentic_mpc.sumo.bridge`: the only package that imports libsumo (conventions converted there);
 - :mod:`~agentic_mpc.sumo.network`: lane geometry of a net as the controller's ``LanePath`` s;
 - :mod:`~agentic_mpc.sumo.config`: what a SUMO world is made of (validated, imports nothing heavy);
 - :mod:`~agentic_mpc.sumo.observations`: the bridge's records -> the world's ``Observation``;

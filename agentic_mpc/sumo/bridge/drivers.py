@@ -1,0 +1,72 @@
+"""Telling SUMO's drivers things: vType parameters, gaps to open for the ego, release from a rescue lane."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import libsumo
+
+from agentic_mpc.sumo.bridge.base import _LIBSUMO_ERRORS, BridgeState
+from agentic_mpc.sumo.options import error_message as _message
+from agentic_mpc.sumo.records import SumoError
+
+_SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (every kind of change, respecting others)
+_GAP_CHANGE_RATE = 1.0  # openGap: how fast the follower's headway moves to the requested one (per s)
+
+
+class DriverCommands(BridgeState):
+    """What SUMO's own drivers are told (the decisions are in ``intention`` and ``world``)."""
+
+    def set_type_parameters(self, type_id: str, params: dict[str, float | str]) -> None:
+        """Set generic parameters of a vType (e.g. the bluelight device's reaction probabilities)."""
+        try:
+            for key, value in params.items():
+                libsumo.vehicletype.setParameter(type_id, key, str(value))
+        except _LIBSUMO_ERRORS as error:
+            raise SumoError(f"cannot set parameters {params} of vType {type_id!r}: {_message(error)}") from error
+
+    def open_gaps(self, vehicle_id: str, gap_requests: Iterable, end_for: Iterable[str] = ()) -> None:
+        """Each :class:`~agentic_mpc.sumo.intention.GapRequest`'s follower opens a gap behind ``vehicle_id``; the
+        vehicles ``end_for`` stop doing so. SUMO's gap control with a reference vehicle ends only once its gap
+        is reached: a follower that had passed a standing ego stood for good (measured)."""
+        self._require_running()
+        try:
+            present = set(libsumo.vehicle.getIDList())
+            for follower_id in end_for:
+                if follower_id in present:
+                    libsumo.vehicle.deactivateGapControl(follower_id)
+            for request in gap_requests:
+                libsumo.vehicle.openGap(
+                    request.follower_id, request.time_headway_s, request.space_headway_m, request.duration_s,
+                    _GAP_CHANGE_RATE, request.max_decel_mps2, vehicle_id,
+                )
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail(f"asking followers to let {vehicle_id!r} in", error) from error
+
+    def release_rescue_lanes(self, behind_m: float, lc_strategic: dict[str, float]) -> tuple[str, ...]:
+        """Drivers an emergency vehicle has passed by more than ``behind_m`` (along their route) get strategic lane
+        changes (``lc_strategic``: vType id -> lcStrategic, else SUMO's 1) and SUMO's default lane-change mode
+        back; SUMO's bluelight device keeps both from them while it is on their edge (docs/traffic.md). External
+        and stopped vehicles are left alone. Returns the ids released."""
+        self._require_running()
+        released = []
+        try:
+            for vehicle_id in libsumo.vehicle.getIDList():
+                emergency_id = libsumo.vehicle.getParameter(vehicle_id, "rescueLane")
+                if not emergency_id or vehicle_id in self._external or vehicle_id in self._stopped:
+                    continue
+                if float(libsumo.vehicle.getParameter(vehicle_id, "laneChangeModel.lcStrategic")) >= 0.0:
+                    continue  # released already (the device takes it once)
+                if emergency_id in self._emergency:
+                    x_m, y_m = libsumo.vehicle.getPosition(emergency_id)
+                    if libsumo.vehicle.getDrivingDistance2D(vehicle_id, x_m, y_m) <= behind_m:
+                        continue  # still close, or not on its route ahead (a huge negative number)
+                type_id = libsumo.vehicle.getTypeID(vehicle_id).split("@")[0]  # the device's copy is type@vehicle
+                libsumo.vehicle.setParameter(
+                    vehicle_id, "laneChangeModel.lcStrategic", repr(lc_strategic.get(type_id, 1.0))
+                )
+                libsumo.vehicle.setLaneChangeMode(vehicle_id, _SUMO_LANE_CHANGE_MODE)
+                released.append(vehicle_id)
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail("releasing drivers from a rescue lane", error) from error
+        return tuple(released)
