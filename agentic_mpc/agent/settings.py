@@ -44,8 +44,9 @@ class AgentRunSettings(FrozenConfig):
 
     mcp_servers: tuple[McpServerSettings, ...] = Field(
         (), description="other MCP servers the agent is a host of (their tools namespaced, read-only to the car)")
-    knowledge: bool = Field(False, description="also connect the shipped knowledge server (traffic rules, the "
-                                               "car's manual: docs/knowledge.md), in process, as 'knowledge'")
+    knowledge: bool = Field(True, description="also connect the shipped knowledge server (traffic rules, the car's "
+                                              "manual: docs/knowledge.md), in process, as 'knowledge' (false: only "
+                                              "the controller's server and mcp_servers)")
 
     mode: Literal["lockstep", "realtime"] = Field(
         "lockstep", description="lockstep: reproducible, tool calls take effect latency_s (sim time) after the "

@@ -46,9 +46,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--scenario", type=scenario_file, default=None,
                         help="start from this scenario's world and initial specification (default: the paper's Scenario 1)")
     parser.add_argument("--variant", default=None, help="with --scenario: the variant")
-    parser.add_argument("--knowledge", action="store_true",
-                        help="give the agent the knowledge server (traffic rules, the car's manual): a question is "
-                             "answered from it, citing the document (docs/knowledge.md)")
+    parser.add_argument("--knowledge", action=argparse.BooleanOptionalAction, default=None,
+                        help="the agent has the knowledge server (traffic rules, the car's manual; on by default): a "
+                             "question is answered from it, citing the document (docs/knowledge.md)")
     parser.set_defaults(handler=run)
 
 
@@ -59,7 +59,7 @@ def _settings(args: argparse.Namespace):  # -> AgentSettings
     if args.backend == "llamacpp" and args.model_path is None:
         raise ValueError("--backend llamacpp needs --model-path (a GGUF model file)")
     return validated_agent_settings({**flag_settings(args), "mode": "realtime",
-                                     **({"knowledge": True} if getattr(args, "knowledge", False) else {})})
+                                     **({} if getattr(args, "knowledge", None) is None else {"knowledge": args.knowledge})})
 
 
 def _why_no_call(report) -> str:  # report: StepReport

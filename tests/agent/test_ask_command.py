@@ -140,10 +140,18 @@ def test_ask_with_a_bad_model_file_fails_before_the_run(capsys, tmp_path, conten
     assert captured.out == "" and why in captured.err and str(path) in captured.err
 
 
-def test_a_question_with_knowledge_is_answered_from_the_document_it_cites(capsys):
+def test_a_question_is_answered_from_the_document_it_cites_knowledge_being_on_by_default(capsys):
     from agentic_mpc.cli import main
 
-    assert main(["ask", "What is the speed limit on a Japanese expressway?", "--knowledge"]) == 0
+    assert main(["ask", "What is the speed limit on a Japanese expressway?"]) == 0
     out = capsys.readouterr().out
     assert "knowledge__search_knowledge(query='What is the speed limit on a Japanese expressway?'" in out
     assert "jp-traffic-rules" in out and "100 km/h" in out
+
+
+def test_without_knowledge_nothing_is_searched(capsys):
+    from agentic_mpc.cli import main
+
+    main(["ask", "What is the speed limit on a Japanese expressway?", "--no-knowledge"])
+    out = capsys.readouterr().out
+    assert "knowledge__search_knowledge" not in out and "jp-traffic-rules" not in out
