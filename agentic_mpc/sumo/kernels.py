@@ -68,19 +68,30 @@ def _points(xy, s_table, tangents, inner_s, length, s, points, tangents_out):  #
 @numba.njit(**_JIT)
 def _discs(xy, s_table, tangents, inner_s, length, steps, rows, out, headings):  # type: ignore[no-untyped-def]
     for n in range(rows.shape[0]):
-        speed, lane_s, lateral, offset = rows[n, 0], rows[n, 1], rows[n, 2], rows[n, 3]
+        speed, lane_s, lateral, offset, heading = rows[n, 0], rows[n, 1], rows[n, 2], rows[n, 3], rows[n, 4]
+        turned = not math.isnan(heading)
+        cos_a, sin_a = 1.0, 0.0
+        if turned:  # the vehicle's angle to its lane now, kept over the horizon
+            _, _, t0x, t0y = _point(xy, s_table, tangents, inner_s, length, lane_s)
+            ch, sh = math.cos(heading), math.sin(heading)
+            cos_a = t0x * ch + t0y * sh
+            sin_a = t0x * sh - t0y * ch
         for k in range(steps.shape[0]):
             x, y, tx, ty = _point(xy, s_table, tangents, inner_s, length, lane_s + speed * steps[k])
             if lateral != 0.0:  # off the lane's centre line: along the normal (-ty, tx)
                 x = x + lateral * -ty
                 y = y + lateral * tx
-            if offset != 0.0:  # along the heading
-                x = x + offset * tx
-                y = y + offset * ty
+            hx, hy = tx, ty
+            if turned:  # the lane's direction turned by the vehicle's angle to it
+                hx = tx * cos_a - ty * sin_a
+                hy = ty * cos_a + tx * sin_a
+            if offset != 0.0:  # along the vehicle's heading
+                x = x + offset * hx
+                y = y + offset * hy
             out[n, k, 0] = x
             out[n, k, 1] = y
-            headings[n, k, 0] = tx
-            headings[n, k, 1] = ty
+            headings[n, k, 0] = hx
+            headings[n, k, 1] = hy
 
 
 @numba.njit(**_JIT)
@@ -147,9 +158,10 @@ def points_at(line: Polyline, s_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def disc_centres(line: Polyline, steps: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centres (discs, H, 2) of discs around vehicles on ``line``, one row of ``rows`` each: (speed, lane_s,
-    lateral offset, offset along the heading), and the lane's unit tangents there (discs, H, 2). Stage k: the lane
-    point at ``lane_s + speed * steps[k]``, plus the lateral offset along the lane's normal, plus the offset along
-    its tangent (each only if non-zero)."""
+    lateral offset, offset along the heading, the vehicle's heading in rad or NaN), and the vehicle's heading at
+    each stage (discs, H, 2). Stage k: the lane point at ``lane_s + speed * steps[k]``, plus the lateral offset
+    along the lane's normal (if non-zero), plus the offset along the heading: the lane's tangent there turned by
+    the vehicle's angle to its lane at ``lane_s`` (NaN: not turned, the lane's tangent)."""
     out, headings = np.empty((rows.shape[0], steps.shape[0], 2)), np.empty((rows.shape[0], steps.shape[0], 2))
     _discs(line.xy, line.s, line.tangents, line.inner_s, line.length_m, steps, rows, out, headings)
     return out, headings

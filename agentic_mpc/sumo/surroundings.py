@@ -271,14 +271,16 @@ class SurroundingsBuilder:
                     passing_lanes: frozenset[int] = frozenset()) -> None:
         """The discs of the vehicles on lanes: one compiled call per lane (see :mod:`agentic_mpc.sumo.kernels`)
         for all its discs, one row each; stage k of a disc is the lane point at lane_s + v * t_k, plus the
-        vehicle's lateral offset along the lane's normal, plus the disc's offset along the lane's tangent.
+        vehicle's lateral offset along the lane's normal, plus the disc's offset along the vehicle's heading (the
+        lane's tangent turned by the vehicle's angle to its lane now: a car standing 40 deg across its lane
+        reaches into the next, measured in SUMO's rescue lanes, and its cover must too).
 
         Gap acceptance: a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the
         ego in, braking at ``follower_yield_mps2`` (as its mean speed over the horizon). At constant speed no
         gap in 3240 veh/h let the ego pull out from a standstill (docs/traffic.md)."""
         yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
         for index, lane_items in per_lane.items():
-            rows: list[tuple[float, float, float, float]] = []  # (speed, lane_s, lateral offset, offset)
+            rows: list[tuple[float, float, float, float, float]] = []  # (speed, lane_s, lateral, offset, heading)
             radii: list[float] = []
             yielding = index in passing_lanes and yield_mps > 0.0
             for vehicle, cover, headway in lane_items:
@@ -286,7 +288,7 @@ class SurroundingsBuilder:
                 if yielding and vehicle.relation == "behind":
                     speed = max(0.0, speed - yield_mps)
                 for offset in self._offsets(vehicle, cover, headway):
-                    rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset))
+                    rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset, vehicle.heading_rad))
                     radii.append(cover.radius_m)
             centres, headings = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
             extents = self._ego_half_extents_m

@@ -66,17 +66,24 @@ def test_disc_centres_are_the_numpy_sums(line):
     rows = np.column_stack([
         rng.uniform(0.0, 30.0, n), rng.uniform(-20.0, line.length_m + 20.0, n),
         rng.choice([0.0, 0.0, -0.7, 1.3, np.nan], n), rng.choice([0.0, -2.5, 1.1, 3.75], n),
+        rng.choice([np.nan, 0.0, 0.7, -2.9], n),  # the vehicle's heading (NaN: along its lane)
     ])
     got, got_headings = kernels.disc_centres(line, STEPS, rows)
     for row, centres, headings in zip(rows.tolist(), got, got_headings, strict=True):
-        speed, lane_s, lateral, offset = row
+        speed, lane_s, lateral, offset, vehicle_heading = row
         expected, heading = line.at(lane_s + speed * STEPS)  # what the surroundings did one vehicle at a time
         if lateral:
             expected = expected + lateral * np.stack([-heading[:, 1], heading[:, 0]], axis=1)
+        if not np.isnan(vehicle_heading):  # the lane's tangent turned by the vehicle's angle to it at lane_s
+            _, (now,) = line.at(np.array([lane_s]))
+            h = np.array([np.cos(vehicle_heading), np.sin(vehicle_heading)])
+            cos_a, sin_a = now[0] * h[0] + now[1] * h[1], now[0] * h[1] - now[1] * h[0]
+            heading = np.stack([heading[:, 0] * cos_a - heading[:, 1] * sin_a,
+                                heading[:, 1] * cos_a + heading[:, 0] * sin_a], axis=1)
         if offset:
             expected = expected + offset * heading
         assert _same(centres, expected)
-        assert _same(headings, heading)  # the lane's heading at the disc, for the ego-heading-aware radius
+        assert _same(headings, heading)  # the vehicle's heading at the disc, for the ego-heading-aware radius
 
 
 @pytest.mark.parametrize("line", LINES, ids=range(len(LINES)))
