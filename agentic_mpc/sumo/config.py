@@ -25,7 +25,7 @@ class SurroundingsConfig(FrozenConfig):
     )
     heading_aware_covers: bool = Field(
         True, description="a cover grows by how much further the ego's corner reaches when it is turned against the "
-        "vehicle (its half length x |sin| of the angle); False: the covers assume the ego aligned"
+        "vehicle (about its half length x |sin| of the angle); False: the covers assume the ego aligned"
     )
     max_discs_per_vehicle: int = Field(8, ge=1, le=16)
     lane_entry_margin_m: float | None = Field(

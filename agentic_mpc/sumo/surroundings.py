@@ -257,12 +257,11 @@ class SurroundingsBuilder:
         if per_lane:
             self._lane_discs(discs, per_lane, self.passing_lanes(observation, target_lane))
         for vehicle, cover, headway in off_road:
-            heading = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
-            centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * heading
-            headings = np.ascontiguousarray(np.broadcast_to(heading, centres.shape))
-            heading = headings
+            direction = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
+            centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * direction
+            headings = np.ascontiguousarray(np.broadcast_to(direction, centres.shape))
             for offset in self._offsets(vehicle, cover, headway):
-                discs.append(MovingDisc(centres + offset * heading if offset else np.ascontiguousarray(centres),
+                discs.append(MovingDisc(centres + offset * headings if offset else np.ascontiguousarray(centres),
                                         cover.radius_m, headings, self._ego_half_extents_m))
         return tuple(discs)
 
