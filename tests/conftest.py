@@ -5,7 +5,7 @@ from __future__ import annotations
 
 def pytest_terminal_summary(terminalreporter) -> None:
     measured = [(report.nodeid, value) for reports in terminalreporter.stats.values() for report in reports
-                if hasattr(report, "user_properties") and report.when == "call"
+                if getattr(report, "when", None) == "call"  # reports (the stats also hold deselected items)
                 for name, value in report.user_properties if name == "measured"]
     if not measured:
         return

@@ -206,8 +206,8 @@ def rollout_costs(
         for o in range(disc_centres.shape[0]):
             cx, cy = disc_centres[o, k, 0], disc_centres[o, k, 1]
             hx, hy = disc_headings[o, k, 0], disc_headings[o, k, 1]
-            radius, weight = disc_params[o, 0], disc_params[o, 1]
-            half_length, half_width = disc_params[o, 2], disc_params[o, 3]
+            radius, weight, body = disc_params[o, 0], disc_params[o, 1], disc_params[o, 2]
+            half_length, half_width = disc_params[o, 3], disc_params[o, 4]
             for i in range(n_samples):
                 dx = x[i] - cx
                 dy = y[i] - cy
@@ -215,7 +215,7 @@ def rollout_costs(
                 # the ego turned against the cover's heading: its corner reaches further (MovingDisc.headings)
                 cos_rel = c[i] * hx + s[i] * hy
                 sin_rel = s[i] * hx - c[i] * hy
-                r = radius + max(0.0, half_length * abs(sin_rel) - half_width * (1.0 - abs(cos_rel)))
+                r = max(radius, body + max(0.0, half_length * abs(sin_rel) - half_width * (1.0 - abs(cos_rel))))
                 r2 = r * r
                 costs[i] += weight * (2.0 - d2 / r2) if d2 < r2 else 0.0
         for e in range(edge_ref.shape[0]):

@@ -75,9 +75,13 @@ class MovingDisc:
     headings: FloatArray | None = None
     """Unit vectors (H, 2): the heading the cover assumes the ego aligned with (the covered vehicle's). An ego
     turned by psi against it reaches ``a |sin psi| - b (1 - |cos psi|)`` further sideways with its corner (a, b
-    its half length and half width, ``ego_half_extents_m``), and the radius grows by that (never shrinks).
-    None: the cover does not depend on the ego's heading (a round ego)."""
+    its half length and half width, ``ego_half_extents_m``), and the body's radius grows by that. None: the cover
+    does not depend on the ego's heading (a round ego)."""
     ego_half_extents_m: tuple[float, float] = (0.0, 0.0)
+    body_radius_m: float | None = None
+    """The part of the cover that is the two bodies (with the clearance margin), which grows with the ego's
+    angle; the disc's radius is ``max(radius_m, body_radius_m + growth)``. None: ``radius_m`` (a cover wider than
+    the bodies, such as one keeping the ego's centre out of a lane, grows only once the body's reaches past it)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,8 +162,8 @@ class FusedArrays(NamedTuple):
     # previous ab, steering smoothness weight, throttle/brake smoothness weight, brake effort weight
     disc_centres: FloatArray  # (n_discs, H, 2)
     disc_headings: FloatArray  # (n_discs, H, 2) unit headings the cover assumes the ego aligned with
-    disc_params: FloatArray  # (n_discs, 4): clearance radius, weight per stage, ego half length, half width
-    # (both 0: the radius does not depend on the ego's heading; see MovingDisc)
+    disc_params: FloatArray  # (n_discs, 5): cover radius, weight per stage, body radius, ego half length, half
+    # width (both 0: the radius does not depend on the ego's heading; see MovingDisc)
     edge_ref: FloatArray  # (n_edges, H, 2) points on the road edges
     edge_tan: FloatArray  # (n_edges, H, 2)
     edge_params: FloatArray  # (n_edges, 3): side sign (+1 left edge, -1 right edge), margin, weight
@@ -183,8 +187,8 @@ class FusedTerms:
     steer_sign: list[tuple[float, float]] = field(default_factory=list)
     lateral: list[tuple[float, float, float, FloatArray, FloatArray]] = field(default_factory=list)
     limits: tuple[float, ...] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    discs: list[tuple[FloatArray, FloatArray, float, float, float, float]] = field(default_factory=list)
-    """Per disc: centres, headings, radius, weight, ego half length, half width."""
+    discs: list[tuple[FloatArray, FloatArray, float, float, float, float, float]] = field(default_factory=list)
+    """Per disc: centres, headings, cover radius, weight, body radius, ego half length, half width."""
     edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
     leaders: list[tuple[FloatArray, FloatArray, float, float]] = field(default_factory=list)
     time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
@@ -218,7 +222,7 @@ class FusedTerms:
             limits=np.array(self.limits, dtype=np.float64),  # holds the previous input: new every step
             disc_centres=stack([c for c, *_ in self.discs]),
             disc_headings=stack([headings for _, headings, *_ in self.discs]),
-            disc_params=table([d[2:] for d in self.discs], 4),
+            disc_params=table([d[2:] for d in self.discs], 5),
             edge_ref=stack([p for p, _, _, _, _ in self.edges]),
             edge_tan=stack([t for _, t, _, _, _ in self.edges]),
             edge_params=table([(side, margin, w) for _, _, side, margin, w in self.edges], 3),

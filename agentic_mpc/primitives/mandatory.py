@@ -160,14 +160,17 @@ def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
 
 def _turned_radius_m(disc: MovingDisc, r: Rollouts) -> FloatArray | float:
     """The disc's radius with the ego turned against the heading its cover assumes (``MovingDisc.headings``):
-    its corner reaches ``a |sin psi| - b (1 - |cos psi|)`` further, written as the fused kernel writes it."""
+    its corner reaches ``a |sin psi| - b (1 - |cos psi|)`` further than the body's radius, never less than the
+    cover's; written as the fused kernel writes it."""
     half_length, half_width = disc.ego_half_extents_m
     if disc.headings is None or (half_length == 0.0 and half_width == 0.0):
         return disc.radius_m
     hx, hy = disc.headings[:, 0:1], disc.headings[:, 1:2]
     c, s = np.cos(r.phi_rad), np.sin(r.phi_rad)
     cos_rel, sin_rel = c * hx + s * hy, s * hx - c * hy
-    return disc.radius_m + np.maximum(0.0, half_length * np.abs(sin_rel) - half_width * (1.0 - np.abs(cos_rel)))
+    body = disc.radius_m if disc.body_radius_m is None else disc.body_radius_m
+    grown = body + np.maximum(0.0, half_length * np.abs(sin_rel) - half_width * (1.0 - np.abs(cos_rel)))
+    return np.maximum(disc.radius_m, grown)
 
 
 class _AlignedHeadings(dict):
@@ -261,7 +264,8 @@ class PreparedMandatory:
                 headings, extents = _ALIGNED[h], (0.0, 0.0)
             else:
                 headings, extents = disc.headings, disc.ego_half_extents_m
-            terms.discs.append((disc.centres, headings, disc.radius_m, p.vehicle_clearance_weight / h, *extents))
+            body = disc.radius_m if disc.body_radius_m is None else disc.body_radius_m
+            terms.discs.append((disc.centres, headings, disc.radius_m, p.vehicle_clearance_weight / h, body, *extents))
         for edge, side in self.edges:
             terms.edges.append((edge.points, edge.tangents, side, p.road_edge_margin_m, p.road_edge_weight / h))
         terms.time_gap = (p.time_gap_s, p.standstill_gap_m, p.time_gap_weight / h, p.time_gap_quadratic_m,

@@ -280,18 +280,20 @@ class SurroundingsBuilder:
         yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
         for index, lane_items in per_lane.items():
             rows: list[tuple[float, float, float, float, float]] = []  # (speed, lane_s, lateral, offset, heading)
-            radii: list[float] = []
+            radii: list[tuple[float, float]] = []  # (the cover's, the bodies')
             yielding = index in passing_lanes and yield_mps > 0.0
             for vehicle, cover, headway in lane_items:
+                body_radius = self._cover(vehicle, physical=True).radius_m  # what grows with the ego's angle
                 speed = vehicle.speed_mps
                 if yielding and vehicle.relation == "behind":
                     speed = max(0.0, speed - yield_mps)
                 for offset in self._offsets(vehicle, cover, headway):
                     rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset, vehicle.heading_rad))
-                    radii.append(cover.radius_m)
+                    radii.append((cover.radius_m, body_radius))
             centres, headings = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
             extents = self._ego_half_extents_m
-            discs.extend(MovingDisc(c, r, h, extents) for c, r, h in zip(centres, radii, headings, strict=True))
+            discs.extend(MovingDisc(c, radius, h, extents, body)
+                         for c, (radius, body), h in zip(centres, radii, headings, strict=True))
 
     def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:
         """The discs' offsets along the vehicle's heading; a leader's row extended backwards by ``headway``."""

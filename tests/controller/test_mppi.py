@@ -58,7 +58,7 @@ def surroundings(horizon):
     blockages = (Blockage(40.0, 1.0, 1.0, 0.0, 2.4), Blockage(25.0, 4.5, 0.995, 0.0998, 2.4))
     # A car changing lanes to the left alongside at 0.15 rad: its cover grows with the ego's angle against it.
     changing = np.hstack([3 + 12.5 * 0.04 * k, 4.0 + 1.6 * 0.04 * k])
-    turned = MovingDisc(changing, 2.4, np.tile([np.cos(0.15), np.sin(0.15)], (horizon, 1)), (2.6, 0.95))
+    turned = MovingDisc(changing, 2.55, np.tile([np.cos(0.15), np.sin(0.15)], (horizon, 1)), (2.6, 0.95), 2.4)
     discs = (MovingDisc(ahead, 2.5), turned)
     return Surroundings(moving_discs=discs, road_left_edge=edge, road_right_edge=right,
                         leaders=(leader, bend), blockages=blockages)
