@@ -7,7 +7,8 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 FS_SERVER := .cache/npm/node_modules/@modelcontextprotocol/server-filesystem/dist/index.js
 
-# the suite in one process per core (at most 4), a test file's tests in the same one (module fixtures run once)
+# the suite in one process per core (at most 4), a test file's tests in the same one (module fixtures run once);
+# the tests that assert wall-clock bounds (marked timing) after it, alone
 PARALLEL := -n auto --maxprocesses 4 --dist loadfile
 
 .PHONY: demo test test-fast bench nets clean
@@ -36,10 +37,12 @@ test: $(STAMP)
 	if command -v npm >/dev/null && [ ! -f $(FS_SERVER) ]; then \
 		npm install --silent --no-audit --no-fund --prefix .cache/npm @modelcontextprotocol/server-filesystem@2026.8.31 \
 		|| true; fi
-	$(BIN)/python -m pytest $(PARALLEL)
+	$(BIN)/python -m pytest $(PARALLEL) -m "not timing"
+	$(BIN)/python -m pytest -m timing
 
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest $(PARALLEL) -m "not slow"
+	$(BIN)/python -m pytest $(PARALLEL) -m "not slow and not timing"
+	$(BIN)/python -m pytest -m "timing and not slow"
 
 nets: $(STAMP)
 	$(BIN)/python -m sumo_nets.build

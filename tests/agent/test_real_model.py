@@ -188,6 +188,7 @@ def test_the_system_message_is_read_once_before_the_first_message(in_process, tm
     assert end["prompt_tokens"] == usage.prompt_tokens and end["model_s"] > 0 and end["wall_s"] >= end["model_s"]
 
 
+@pytest.mark.timing
 def test_an_abandoned_answer_stops_generating(in_process):
     """The agent's timeout cancels the answer: llama.cpp stops at the next token, the next call is not held up.
     (Last in this module: its prompt replaces the system prompt in the model's cache.)"""

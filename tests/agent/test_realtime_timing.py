@@ -8,6 +8,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+import pytest
 
 from agentic_mpc.agent import Agent, AgentConfig
 from agentic_mpc.agent.backends.openai import OpenAIBackend
@@ -16,6 +17,7 @@ from tests.agent.conftest import paper_start_config, plain_loop
 from tests.agent.scripted_llm import Delay, ScriptedLLM, calls, text, tool_call
 
 THINK_S = 3.0
+pytestmark = pytest.mark.timing  # step lateness in real time: alone, not beside other tests
 
 
 @dataclass

@@ -266,6 +266,7 @@ def stacks_of(batch: subprocess.Popen) -> str:
     return f"{stderr[-6000:]}\nits children:\n{tree}"
 
 
+@pytest.mark.timing
 def test_ctrl_c_stops_the_runs_keeps_what_finished_and_the_rerun_resumes(tmp_path):
     file, out, gate, log = scenario_yaml(tmp_path, "plain"), tmp_path / "out", tmp_path / "gate", tmp_path / "ran.txt"
     gate.mkdir()

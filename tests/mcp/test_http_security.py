@@ -297,6 +297,7 @@ def _median_step_ms(trajectory: pd.DataFrame, start_s: float, end_s: float, colu
 
 
 @pytest.mark.slow
+@pytest.mark.timing
 def test_soak_fuzz_and_fifty_clients(tmp_path):
     served = Served(tmp_path, "--ambulance-at-s", "-1")
     stats: dict[str, int] = dict.fromkeys(("reads", "calls", "accepted", "limited", "fuzz", "fuzz_5xx"), 0)
@@ -387,9 +388,7 @@ def test_soak_fuzz_and_fifty_clients(tmp_path):
     assert not failures, failures[:10]
     assert "Traceback" not in stderr and "ERROR" not in stderr, stderr[-3000:]
     assert stats["fuzz"] >= FUZZ_REQUESTS and stats["fuzz_5xx"] == 0
-    # it kept serving all along (a floor, not a speed: the suite runs a test file per core, and with both cores
-    # loaded 167 reads were made in 10 s against 20 a second alone)
-    assert stats["reads"] > 5 * LOAD_S and stats["accepted"] > LOAD_S and stats["accepted"] + stats["limited"] == stats["calls"]
+    assert stats["reads"] > 20 * LOAD_S and stats["accepted"] > 5 * LOAD_S and stats["accepted"] + stats["limited"] == stats["calls"]
     # the car keeps a valid specification: one of the speeds the clients asked for, never a fuzzed one
     assert any(f"v_ref_mps={v:g}" in extra["spec"]["summary"] for v in VALID_SPEEDS), extra["spec"]["summary"]
     # the simulation kept its pace (real time) under load

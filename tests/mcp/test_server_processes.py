@@ -31,6 +31,7 @@ async def read_json(client, uri):
     return json.loads((await client.read_resource(uri)).contents[0].text)
 
 
+@pytest.mark.timing
 def test_stdio_client_lists_reads_calls_and_is_refused_out_of_range():
     params = StdioServerParameters(command=SERVE[0], args=[*SERVE[1:], "--transport", "stdio", "--ambulance-at-s", "0"],
                                    cwd=str(REPO), env=ENV)
