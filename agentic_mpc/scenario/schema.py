@@ -37,7 +37,7 @@ class PathTrackingSettings(FrozenConfig):
 
 class ObstacleAvoidanceSettings(FrozenConfig):
     """J2 of the initial specification over the simulation's obstacles marked ``in_j2`` (discs covering each
-    stopped car, inflated by the ego's half size and a margin: ``sumo.surroundings.obstacle_circles``)."""
+    stopped car, inflated by the ego's half size and a margin: ``sumo.covers.obstacle_circles``)."""
 
     penalty: float = Field(100.0, gt=0)
 

@@ -43,72 +43,20 @@ the ego would make the ego flee forwards.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from agentic_mpc.primitives import Circle, Leader, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.primitives import Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
+from agentic_mpc.sumo.covers import DiscCover, disc_cover
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.sumo.queues import QUEUE_LEADER_WITHIN_M, Queue, drives_up_to_a_queue, find_queues
-from agentic_mpc.world.observation import Observation, ObstacleObservation, VehicleObservation
+from agentic_mpc.world.observation import Observation, VehicleObservation
 
 CUT_IN_LOOKAHEAD_S = 1.0
 """A neighbour whose box is predicted to reach into the ego's path lane within this time counts as a leader."""
 MAX_LEADERS = 3
-
-
-@dataclass(frozen=True, slots=True)
-class DiscCover:
-    """Discs covering the region the ego's centre must avoid around one vehicle."""
-
-    offsets_m: tuple[float, ...]
-    """Along the vehicle's heading from its centre."""
-    radius_m: float
-    spacing_m: float = 0.0
-    """The largest disc spacing that still covers the rectangle's sides (for extending the row)."""
-
-
-def disc_cover(
-    length_m: float,
-    width_m: float,
-    ego_length_m: float,
-    ego_width_m: float,
-    margin_m: float = 0.5,
-    max_discs: int = 8,
-    min_half_width_m: float = 0.0,
-) -> DiscCover:
-    """Discs covering the rectangle the ego's centre must avoid around another vehicle's centre:
-    half length (L + L_ego)/2, half width max((W + W_ego)/2, ``min_half_width_m``).
-
-    Radius r = half width + margin. The end discs sit so that they reach the rectangle's corners, and the
-    discs are close enough that the long sides are covered between them too; the margin is what makes
-    that possible (with margin 0 the corners would need infinitely many discs).
-    """
-    half_w = max(0.5 * (width_m + ego_width_m), min_half_width_m)
-    half_l = 0.5 * (length_m + ego_length_m)
-    radius = half_w + margin_m
-    if margin_m <= 0.0 or half_l <= radius:
-        return DiscCover((0.0,), math.hypot(half_l, half_w) + margin_m)
-    chord = math.sqrt(radius * radius - half_w * half_w)  # half the side length one disc covers at |lat| = half_w
-    end = max(0.0, half_l - chord)
-    count = min(max_discs, math.ceil(end / chord) + 1)
-    if count == 1:
-        return DiscCover((0.0,), radius, 2.0 * chord)
-    return DiscCover(tuple(float(o) for o in np.linspace(-end, end, count)), radius, 2.0 * chord)
-
-
-def obstacle_circles(
-    obstacle: ObstacleObservation, ego_length_m: float, ego_width_m: float, margin_m: float = 0.5
-) -> tuple[Circle, ...]:
-    """J2 circles for a stopped-vehicle obstacle (the same cover as moving vehicles get in J0)."""
-    cover = disc_cover(obstacle.length_m, obstacle.width_m, ego_length_m, ego_width_m, margin_m)
-    c, s = math.cos(obstacle.heading_rad), math.sin(obstacle.heading_rad)
-    return tuple(
-        Circle(x_m=obstacle.x_m + o * c, y_m=obstacle.y_m + o * s, radius_m=cover.radius_m, label=obstacle.id)
-        for o in cover.offsets_m
-    )
 
 
 class SurroundingsBuilder:
@@ -270,9 +218,8 @@ class SurroundingsBuilder:
                     passing_lanes: frozenset[int] = frozenset()) -> None:
         """The discs of the vehicles on lanes: one compiled call per lane (see :mod:`agentic_mpc.sumo.kernels`)
         for all its discs, one row each; stage k of a disc is the lane point at lane_s + v * t_k, plus the
-        vehicle's lateral offset along the lane's normal, plus the disc's offset along the vehicle's heading (the
-        lane's tangent turned by the vehicle's angle to its lane now: a car standing 40 deg across its lane
-        reaches into the next, measured in SUMO's rescue lanes, and its cover must too).
+        vehicle's lateral offset along the lane's normal, plus the disc's offset along the vehicle's heading (a car
+        40 deg across its lane in a rescue lane reaches into the next: docs/traffic.md).
 
         Gap acceptance: a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the
         ego in, braking at ``follower_yield_mps2`` (as its mean speed over the horizon). At constant speed no
@@ -291,8 +238,7 @@ class SurroundingsBuilder:
                     rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset, vehicle.heading_rad))
                     radii.append((cover.radius_m, body_radius))
             centres, headings = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
-            extents = self._ego_half_extents_m
-            discs.extend(MovingDisc(c, radius, h, extents, body)
+            discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body)
                          for c, (radius, body), h in zip(centres, radii, headings, strict=True))
 
     def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:

@@ -28,13 +28,14 @@ from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import Circle, Surroundings
 from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
+from agentic_mpc.sumo.covers import obstacle_circles
 from agentic_mpc.sumo.insertion import insert_at_free_gap
 from agentic_mpc.sumo.intention import IntentionReader
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
 from agentic_mpc.sumo.route_files import RouteFileError, read_route_types, rescue_lanes_active, type_attribute
 from agentic_mpc.sumo.start import open_bridge
-from agentic_mpc.sumo.surroundings import SurroundingsBuilder, obstacle_circles
+from agentic_mpc.sumo.surroundings import SurroundingsBuilder
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.base import WorldError
 from agentic_mpc.world.lanes import RoadLanes

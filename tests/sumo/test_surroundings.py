@@ -10,8 +10,9 @@ import pytest
 
 from agentic_mpc.controller import MPPIConfig
 from agentic_mpc.sumo.config import EgoStart, SumoConfig, SurroundingsConfig, VehicleSpawn
+from agentic_mpc.sumo.covers import disc_cover
 from agentic_mpc.sumo.scenarios import net_files
-from agentic_mpc.sumo.surroundings import SurroundingsBuilder, disc_cover
+from agentic_mpc.sumo.surroundings import SurroundingsBuilder
 from agentic_mpc.sumo.world import SumoWorld
 from tests.sumo.conftest import drive, sumo_loop
 
