@@ -235,12 +235,12 @@ def rollout_costs(
     for o in range(queue_rooms.shape[0]):  # J0's room to pull out behind a blockage, on the plan's last state
         cx, cy, tx, ty = queue_rooms[o, 0], queue_rooms[o, 1], queue_rooms[o, 2], queue_rooms[o, 3]
         radius, turn_radius, cos_g, sin_g = queue_rooms[o, 4], queue_rooms[o, 5], queue_rooms[o, 6], queue_rooms[o, 7]
-        half_inv_decel, weight = queue_rooms[o, 8], queue_rooms[o, 9]
+        half_inv_decel, weight, offset = queue_rooms[o, 8], queue_rooms[o, 9], queue_rooms[o, 10]
         for i in range(n_samples):
             behind = tx * (cx - x[i]) + ty * (cy - y[i])
             beside = tx * (cy - y[i]) - ty * (cx - x[i])
-            if behind > 0.0 and abs(beside) < radius:
-                cos_end = cos_g - (radius - abs(beside)) / turn_radius
+            if behind > 0.0 and abs(beside) < radius:  # in the lane's band; aside: from the car itself
+                cos_end = cos_g - (radius - min(abs(beside + offset), radius)) / turn_radius
                 wanted = turn_radius * (np.sqrt(1.0 - cos_end * cos_end) - sin_g) + half_inv_decel * v[i] * v[i]
                 shortfall = max(0.0, wanted - (behind - radius))
                 huber = _ROOM_KNEE * (2.0 * shortfall - _ROOM_KNEE) if shortfall > _ROOM_KNEE else shortfall * shortfall

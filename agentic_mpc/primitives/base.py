@@ -105,14 +105,16 @@ class Leader:
 class Blockage:
     """The tail of something standing in a lane that the ego may have to pull out around: a stopped obstacle,
     or the last car of the queue standing behind one. ``x_m, y_m``: the centre of the rearmost disc the ego's
-    centre must avoid (radius ``radius_m``); ``tangent``: the lane's direction there (unit). For J0's queue
-    room (:mod:`agentic_mpc.primitives.mandatory`)."""
+    centre must avoid (radius ``radius_m``), on the lane's centre line; ``tangent``: the lane's direction there
+    (unit); ``lateral_offset_m``: how far left of that line the car itself stands (a car aligned to the side of
+    its lane). For J0's queue room (:mod:`agentic_mpc.primitives.mandatory`)."""
 
     x_m: float
     y_m: float
     tangent_x: float
     tangent_y: float
     radius_m: float
+    lateral_offset_m: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,6 +128,9 @@ class Surroundings:
     """Vehicles ahead in the ego's path (usually one; a car cutting in adds another)."""
     blockages: tuple[Blockage, ...] = ()
     """Standing things the ego keeps room to pull out behind (not also leaders)."""
+    reference_shift_m: float = 0.0
+    """J1 follows its path shifted this far to the left (negative: right): the lane the ego passes a blockage
+    of its tracked lane in, on a road whose lanes run parallel (:class:`~agentic_mpc.primitives.PathTracking`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,8 +178,8 @@ class FusedArrays(NamedTuple):
     leader_standstill: FloatArray  # (n_leaders,): the wanted gap at standstill d_0, m (more before a blockage)
     time_gap: FloatArray  # (5,): time gap s, standstill gap m (the kernel reads leader_standstill), weight per
     # stage, Huber knee m, recovery m per step
-    queue_rooms: FloatArray  # (n, 10): rear disc x, y, lane tangent x, y, radius, turn radius, cos and sin of its
-    # slip angle, 1/(2 decel), weight on the last stage
+    queue_rooms: FloatArray  # (n, 11): rear disc x, y, lane tangent x, y, radius, turn radius, cos and sin of its
+    # slip angle, 1/(2 decel), weight on the last stage, the car's lateral offset from the disc's line
 
 
 @dataclass(slots=True)
@@ -231,7 +236,7 @@ class FusedTerms:
             leader_start=np.array([start for _, _, start, _ in self.leaders], dtype=np.float64),
             leader_standstill=np.array([standstill for *_, standstill in self.leaders], dtype=np.float64),
             time_gap=_table((self.time_gap,), len(self.time_gap))[0],
-            queue_rooms=table(self.queue_rooms, 10),
+            queue_rooms=table(self.queue_rooms, 11),
         )
 
 

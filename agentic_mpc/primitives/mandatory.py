@@ -143,7 +143,7 @@ class Mandatory(Primitive):
         turn = context.params.pull_out_turn(self.queue_room_steer)
         rooms = tuple(
             (b.x_m, b.y_m, b.tangent_x, b.tangent_y, b.radius_m, *turn, 0.5 / self.queue_room_decel_mps2,
-             self.queue_room_weight)
+             self.queue_room_weight, b.lateral_offset_m)
             for b in (s.blockages if self.queue_room_weight > 0.0 else ())
         )
         return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
@@ -197,7 +197,8 @@ class PreparedMandatory:
     dt_s: float = 0.0
     queue_rooms: tuple[tuple[float, ...], ...] = ()
     """Per blockage: rear disc x, y, lane tangent x, y, radius, the pull-out turn (radius, cos and sin of the
-    slip angle), 1 / (2 b), weight (on the last stage: the whole horizon's worth)."""
+    slip angle), 1 / (2 b), weight (on the last stage: the whole horizon's worth), the car's offset left of the
+    disc's line."""
     standstill_gaps_m: tuple[float, ...] = ()
     """Per leader: d_0, or the room to pull out behind one that drives up to a blockage."""
 
@@ -233,12 +234,16 @@ class PreparedMandatory:
             q = p.time_gap_quadratic_m
             huber = np.where(shortfall > q, q * (2.0 * shortfall - q), shortfall**2)
             total += p.time_gap_weight / h * np.sum(huber, axis=0)
-        for cx, cy, tx, ty, radius, turn_radius, cos_g, sin_g, half_inv_decel, weight in self.queue_rooms:
+        for cx, cy, tx, ty, radius, turn_radius, cos_g, sin_g, half_inv_decel, weight, offset in self.queue_rooms:
             x_end, y_end, v_end = r.x_m[-1], r.y_m[-1], r.v_mps[-1]  # on the last state only
             behind = tx * (cx - x_end) + ty * (cy - y_end)  # along the lane, to the rear disc's centre
-            beside = tx * (cy - y_end) - ty * (cx - x_end)
+            beside = tx * (cy - y_end) - ty * (cx - x_end)  # the disc's line right of the plan's end
+            # In line is the lane's band; how far aside the plan still has to get is from the car itself, which
+            # may stand to one side (behind a car at 1.6 m right of its lane, an ego at 1.3 m right was counted
+            # 1.3 m aside, crept up to 1.6 m and blocked the car's own way out: docs/traffic.md).
+            aside = np.abs(beside + offset)
             # The run needed to get the rest of the way aside (VehicleParams.pull_out_distance_m), + stopping.
-            cos_end = cos_g - (radius - np.minimum(np.abs(beside), radius)) / turn_radius  # out of line: masked
+            cos_end = cos_g - (radius - np.minimum(aside, radius)) / turn_radius  # out of line: masked
             wanted = turn_radius * (np.sqrt(1.0 - cos_end * cos_end) - sin_g) + half_inv_decel * v_end * v_end
             shortfall = np.where((behind > 0.0) & (np.abs(beside) < radius),
                                  np.maximum(0.0, wanted - (behind - radius)), 0.0)

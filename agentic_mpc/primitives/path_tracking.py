@@ -106,6 +106,9 @@ class PathTracking(Primitive):
         points, tangents = reference_points(
             self.path, x, y, v_start, self.v_ref_mps, self.reference_accel_mps2, context.dt_s, context.horizon
         )
+        shift = context.surroundings.reference_shift_m
+        if shift:  # the lane beside, passing a blockage of this one: along the left normal (-t_y, t_x)
+            points = points + shift * np.stack((-tangents[:, 1], tangents[:, 0]), axis=1)
         stage_weight = 0.5 * per_stage(self.weight, context.horizon, self.normalise_by_horizon)
         return PreparedPathTracking(TrackingReference(points, tangents), stage_weight, self.lateral_weight)
 

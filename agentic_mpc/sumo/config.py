@@ -56,6 +56,12 @@ class SurroundingsConfig(FrozenConfig):
         description="a follower in a lane beside a blockage is predicted to brake this hard to let the ego in (gap "
         "acceptance for the zipper; 0: it keeps its speed)",
     )
+    detour_beside_queues: bool = Field(
+        True,
+        description="once the ego's centre is in the lane beside a queue that blocks the lane J1 tracks, J1 follows "
+        "that lane until the ego is past the queue's obstacle (pulled back towards the queue, the ego stood wedged "
+        "beside it: docs/traffic.md)",
+    )
     edges: Literal["road", "corridor", "none"] = Field(
         "road",
         description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"
@@ -135,6 +141,13 @@ class RescueLanes(FrozenConfig):
         description="drivers an emergency vehicle is this far past change lanes again (None: reaction_dist_m). SUMO"
         " 1.28 allows them no strategic or speed-gain lane changes while it is on their edge, so on a long edge a"
         " queue behind a stopped car never merged past it (docs/traffic.md)",
+    )
+
+    release_blocked_within_m: float | None = Field(
+        15.0, gt=0,
+        description="drivers standing with a stopped obstacle ahead this close change lanes again while their "
+        "emergency vehicle stands too (None: only once it has passed them): it cannot pass them, and SUMO's queue "
+        "waited for it for good",
     )
 
     @field_validator("emergency_params")

@@ -3,7 +3,8 @@
 The SUMO surroundings (:mod:`agentic_mpc.sumo.surroundings`) turn each into J0's queue room behind its last car
 (``Surroundings.blockages``), keep its cars out of J0's time gap unless the ego is nose to tail with one, give
 a leader driving up to it the pull-out room as its standstill gap, and open the lanes beside it to the
-corridor (docs/traffic.md, "An incident in traffic: what changed").
+corridor (docs/traffic.md, "An incident in traffic: what changed"); :class:`Detour` keeps J1 on the lane the
+ego passes a queue in.
 """
 
 from __future__ import annotations
@@ -70,18 +71,20 @@ def find_queues(observation: Observation, cover_of: Callable[[VehicleObservation
                 break
             members.append(vehicle)
             rear_s = vehicle.road_s_m - 0.5 * vehicle.length_m
+        offset = 0.0
         if members:  # the band is its lane's: a car aligned to the side of its lane (a rescue lane) must
-            # not put the ego beside it in the next lane "in line" with the queue
+            # not put the ego beside it in the next lane "in line" with the queue; how far aside the ego is
+            # counts from the car itself (``offset``)
             tail = members[-1]
-            cover, gap, heading = cover_of(tail), tail.gap_m, tail.heading_rad
-            x = tail.x_m + tail.lateral_offset_m * math.sin(heading)
-            y = tail.y_m - tail.lateral_offset_m * math.cos(heading)
+            cover, gap, heading, offset = cover_of(tail), tail.gap_m, tail.heading_rad, tail.lateral_offset_m
+            x = tail.x_m + offset * math.sin(heading)
+            y = tail.y_m - offset * math.cos(heading)
         else:
             cover = obstacle_cover(obstacle)
             gap, x, y, heading = obstacle.gap_m, obstacle.x_m, obstacle.y_m, obstacle.heading_rad
         tx, ty = math.cos(heading), math.sin(heading)
         rear = cover.offsets_m[0]
-        tail_disc = Blockage(x + rear * tx, y + rear * ty, tx, ty, cover.radius_m)
+        tail_disc = Blockage(x + rear * tx, y + rear * ty, tx, ty, cover.radius_m, offset)
         nose_to_tail = bool(members) and members[-1].relative_lane == 0 and gap <= QUEUE_LEADER_WITHIN_M
         queues.append(Queue(obstacle.id, obstacle.lane_index, tuple(v.id for v in members), tail_disc, gap,
                             rear_s, nose_to_tail))
@@ -93,3 +96,31 @@ def drives_up_to_a_queue(queues: tuple[Queue, ...], vehicle: VehicleObservation)
     front_s = vehicle.road_s_m + 0.5 * vehicle.length_m
     return any(q.lane_index == vehicle.lane_index and 0.0 <= q.tail_rear_s_m - front_s <= QUEUE_APPROACH_M
                for q in queues)
+
+
+class Detour:
+    """The lane J1 follows while the ego passes a queue that blocks the lane J1 tracks.
+
+    It starts once the ego's centre is in a lane beside the tracked one and a queue with cars in it (not a lone
+    stopped car: J2 takes the ego round that, as in the paper) stands ahead in the tracked lane within
+    ``within_m``; it lasts, for that queue's obstacle, until the obstacle is behind the ego or the ego leaves
+    that lane. Pulled back towards the queue instead, the ego stood wedged beside a car of it that stood to
+    its side for 125 s (docs/traffic.md)."""
+
+    def __init__(self) -> None:
+        self._passing: tuple[str, int, int] | None = None  # (obstacle id, lane followed, lane tracked)
+
+    def lane(self, observation: Observation, queues: tuple[Queue, ...], tracked_lane: int | None,
+             within_m: float) -> int | None:
+        """The lane to follow instead of ``tracked_lane``, or None to follow it."""
+        ego = observation.ego
+        if tracked_lane is None or not ego.lane_role or abs(ego.lane_index - tracked_lane) != 1:
+            self._passing = None
+            return None
+        if self._passing is not None and self._passing[1:] == (ego.lane_index, tracked_lane):
+            obstacle = next((o for o in observation.obstacles if o.id == self._passing[0]), None)
+            if obstacle is not None and obstacle.relation != "behind":
+                return ego.lane_index
+        self._passing = next(((q.obstacle_id, ego.lane_index, tracked_lane) for q in queues
+                              if q.lane_index == tracked_lane and q.members and q.tail_gap_m <= within_m), None)
+        return ego.lane_index if self._passing is not None else None

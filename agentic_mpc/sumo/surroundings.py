@@ -51,7 +51,7 @@ from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.covers import DiscCover, disc_cover
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
 from agentic_mpc.sumo.network import Road
-from agentic_mpc.sumo.queues import QUEUE_LEADER_WITHIN_M, Queue, drives_up_to_a_queue, find_queues
+from agentic_mpc.sumo.queues import QUEUE_LEADER_WITHIN_M, Detour, Queue, drives_up_to_a_queue, find_queues
 from agentic_mpc.world.observation import Observation, VehicleObservation
 
 CUT_IN_LOOKAHEAD_S = 1.0
@@ -94,6 +94,7 @@ class SurroundingsBuilder:
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
+        self._detour = Detour()
 
     def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
         """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""
@@ -339,6 +340,12 @@ class SurroundingsBuilder:
         """Surroundings for a control step from ``ego_state`` = [x, y, phi, v] (our model's state at the
         observation's time; SUMO reports the ego where we put it). ``target_lane``: the road lane J1 tracks
         (used by ``edges="corridor"``)."""
+        shift, within = 0.0, self.config.passing_lanes_within_m
+        if self.config.detour_beside_queues and within is not None:
+            detour = self._detour.lane(observation, self.queues(observation), target_lane, within)
+            if detour is not None:  # J1's reference, the corridor, the leaders: of the lane the ego passes in
+                shift = sum(self._lane_bounds[detour]) / 2 - sum(self._lane_bounds[target_lane]) / 2
+                target_lane = detour
         left = right = None
         mode = self.config.edges
         if mode != "none":
@@ -350,4 +357,4 @@ class SurroundingsBuilder:
         # asking for it made the ego steer and creep into the car (ego_into_stopped at 0.2 m/s, seeds 0-2).
         blockages = tuple(queue.tail for queue in self.queues(observation) if not queue.nose_to_tail)
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
-                            blockages=blockages)
+                            blockages=blockages, reference_shift_m=shift)

@@ -353,13 +353,14 @@ class SumoWorld:
         self._asked = asked
 
     def _step_sumo(self) -> None:
-        """One SUMO step; with rescue lanes, drivers an emergency vehicle has passed are released once a second."""
+        """One SUMO step; with rescue lanes, drivers an emergency vehicle has passed (or that stand behind a
+        stopped obstacle) are released once a second."""
         self._bridge.step()
         self._sumo_steps += 1
         if self.rescue_lanes and self._sumo_steps % _RELEASE_EVERY_STEPS == 0:
             rescue = self.config.rescue_lanes
             behind_m = rescue.release_behind_m or rescue.reaction_dist_m
-            self._bridge.release_rescue_lanes(behind_m, self._route_types.lc_strategic)
+            self._bridge.release_rescue_lanes(behind_m, self._route_types.lc_strategic, rescue.release_blocked_within_m)
 
     def time_loss_s(self, vehicle_id: str) -> float | None:
         return self.bridge.time_loss_s(vehicle_id)

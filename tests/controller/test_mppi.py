@@ -55,7 +55,7 @@ def surroundings(horizon):
                   queue_lateral_m=2.4)  # driving up to a blockage: room wanted behind it
     # Two blockages: one in line 38 m ahead (inside the room plus stopping distance from 14 m/s), one ahead
     # and to the left that only some samples end in line with.
-    blockages = (Blockage(40.0, 1.0, 1.0, 0.0, 2.4), Blockage(25.0, 4.5, 0.995, 0.0998, 2.4))
+    blockages = (Blockage(40.0, 1.0, 1.0, 0.0, 2.4), Blockage(25.0, 4.5, 0.995, 0.0998, 2.4, -1.3))
     # A car changing lanes to the left alongside at 0.15 rad: its cover grows with the ego's angle against it.
     changing = np.hstack([3 + 12.5 * 0.04 * k, 4.0 + 1.6 * 0.04 * k])
     turned = MovingDisc(changing, 2.55, np.tile([np.cos(0.15), np.sin(0.15)], (horizon, 1)), (2.6, 0.95), 2.4)

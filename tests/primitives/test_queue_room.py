@@ -31,12 +31,14 @@ def test_pull_out_distance_is_what_the_model_drives(steer, expected_m):
     assert PAPER_PARAMS.pull_out_distance_m(RADIUS_M, steer) == pytest.approx(along, abs=0.005)
 
 
-def _standing_costs(distance_m: float, lateral_m: float = 0.0, v_mps: float = 0.0) -> float:
+def _standing_costs(distance_m: float, lateral_m: float = 0.0, v_mps: float = 0.0, car_offset_m: float = 0.0
+                    ) -> float:
     """J0's cost of the constant plan 'stand still' (or roll on at v) with a blockage ``distance_m`` ahead of
-    the ego's centre (to the rear disc's edge)."""
+    the ego's centre (to the rear disc's edge), its lane's centre line at y = 0 and the car ``car_offset_m``
+    left of it."""
     controller = FourierMPPI(MPPIConfig(samples=2, antithetic=False), seed=0)
     state = np.array([0.0, lateral_m, 0.0, v_mps])
-    blockage = Blockage(distance_m + RADIUS_M, 0.0, 1.0, 0.0, RADIUS_M)
+    blockage = Blockage(distance_m + RADIUS_M, 0.0, 1.0, 0.0, RADIUS_M, car_offset_m)
     spec = Specification.of(mandatory=Mandatory(brake_effort_weight=0.0, throttle_brake_smoothness_weight=0.0))
     context = controller.context(state, Surroundings(blockages=(blockage,)))
     z = np.zeros((2, controller.config.coefficients, 1))
@@ -55,6 +57,18 @@ def test_room_is_free_beyond_the_pull_out_distance_and_charged_inside_it():
 def test_room_shrinks_when_partly_aside_and_vanishes_beside():
     assert _standing_costs(5.0, lateral_m=1.5) < _standing_costs(5.0, lateral_m=0.0)
     assert _standing_costs(5.0, lateral_m=RADIUS_M + 0.1) == 0.0
+
+
+def test_aside_counts_from_the_car_and_in_line_from_its_lane():
+    """A car standing 1.5 m right of its lane's centre: an ego 1.5 m right is straight behind it (the whole
+    room), one 1.5 m left is 3 m aside of it (no room needed), and one in the next lane to the right (3.5 m)
+    is out of the lane's band although it is only 2 m aside of the car."""
+    straight_behind = _standing_costs(5.0)
+    assert _standing_costs(5.0, lateral_m=-1.5, car_offset_m=-1.5) == pytest.approx(straight_behind, rel=1e-12)
+    assert _standing_costs(5.0, lateral_m=1.5, car_offset_m=-1.5) == 0.0
+    assert _standing_costs(5.0, lateral_m=0.0, car_offset_m=-1.5) == pytest.approx(
+        _standing_costs(5.0, lateral_m=1.5), rel=1e-12)
+    assert _standing_costs(5.0, lateral_m=-3.5, car_offset_m=-1.5) == 0.0
 
 
 def test_a_moving_plan_wants_its_stopping_distance_on_top():

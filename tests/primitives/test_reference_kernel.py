@@ -34,3 +34,21 @@ def test_points_on_a_straight_lane_are_exact():
     # The end of the path is where the reference stops.
     points, _ = reference_points(STRAIGHT, 399.0, 0.0, 30.0, 30.0, None, 0.04, 50)
     assert np.all(points[:, 0] <= 400.0) and points[-1, 0] == 400.0
+
+
+def test_a_shifted_reference_runs_along_the_lane_beside():
+    """Surroundings.reference_shift_m (passing a queue in the lane beside): J1's points move along the left
+    normal by the shift, on a bend too, and the tangents stay; a shift of 0 leaves the points as they were."""
+    from agentic_mpc.controller import FourierMPPI
+    from agentic_mpc.primitives import PathTracking, Surroundings
+
+    controller = FourierMPPI(seed=0)
+    state = np.array([45.0, 10.0, 1.8, 12.0])  # on the circle's quarter turn
+    j1 = PathTracking(path=CIRCLE.coordinates.tolist(), v_ref_mps=15.0)
+    plain = j1.prepare(controller.context(state, Surroundings())).reference
+    shifted = j1.prepare(controller.context(state, Surroundings(reference_shift_m=-3.5))).reference
+    assert np.array_equal(shifted.tangents, plain.tangents)
+    normal = np.column_stack([-plain.tangents[:, 1], plain.tangents[:, 0]])
+    assert np.allclose(shifted.points - plain.points, -3.5 * normal, rtol=0, atol=1e-12)
+    # The circle's centre is on the left: shifted right, every point is 3.5 m further out (radius 53.5 m).
+    assert np.allclose(np.hypot(*shifted.points.T), np.hypot(*plain.points.T) + 3.5, atol=0.02)

@@ -107,6 +107,45 @@ def test_drivers_the_ambulance_has_passed_drive_normally_again(report):
     assert all(mode == 1621 and strategic == 0.5 for mode, strategic in released)
 
 
+def released_behind_a_stopped_car(blocked_within_m: float | None, ambulance_stands: bool) -> tuple[set[str], float]:
+    """No ego: three cars in the centre lane drive up to a stopped car, an ambulance comes up behind them (or
+    stands 50 m behind the last: held at 0 m/s). Returns the drivers released in the first 12 s (a passing
+    ambulance is then about 50 m past the first car, inside the 100 m after which a driver is let go) and how
+    far the first car is along the lane 20 s in."""
+    config = curvy_empty(rescue_lanes=RescueLanes(enabled=True), sublane=True)
+    with open_bridge(config, 0, 0.04) as bridge:
+        bridge.add_route("r", ["curvy"])
+        bridge.add_stopped_vehicle("stopped", "r", "car", edge_id="curvy", lane_index=1, pos_m=300.0)
+        for i in range(3):
+            bridge.add_vehicle(f"car{i}", "r", "car", lane_index=1, pos_m=230.0 - 15.0 * i, speed_mps=8.0)
+        bridge.add_vehicle("ambulance", "r", "ambulance", lane_index=1, pos_m=150.0 if ambulance_stands else 120.0,
+                           speed_mps=0.0 if ambulance_stands else 20.0)
+        released: set[str] = set()
+        early: set[str] = set()
+        for step in range(round(20 / 0.04)):
+            if ambulance_stands:
+                libsumo.vehicle.setSpeed("ambulance", 0.0)
+            bridge.step()
+            if step % 25 == 0:
+                released.update(bridge.release_rescue_lanes(100.0, {"car": 1.0}, blocked_within_m))
+            if step == round(12 / 0.04):
+                early = set(released)
+        return early, libsumo.vehicle.getLanePosition("car0")
+
+
+def test_a_driver_standing_behind_a_stopped_car_is_released_while_the_ambulance_stands_too():
+    """Behind a stopped car SUMO's device keeps a driver from changing lanes until the ambulance is 100 m past;
+    an ambulance stuck behind that driver never is, and the queue waited for good (seed 901). With both
+    standing the driver is released at once and is on its way sooner; with the ambulance coming up it is not
+    (released then, drivers pulled out into the ambulance's way)."""
+    held, held_at_m = released_behind_a_stopped_car(None, ambulance_stands=True)
+    early, early_at_m = released_behind_a_stopped_car(15.0, ambulance_stands=True)
+    assert held == set() and early == {"car0"}
+    assert early_at_m > held_at_m + 30.0
+    passing, _ = released_behind_a_stopped_car(15.0, ambulance_stands=False)
+    assert passing == set()
+
+
 def car_after_passing_a_standing_ego(let_go: bool) -> float:
     """A car in the centre lane at 10 m/s asked once to open a gap behind an ego standing in the edge lane 10 m
     ahead; with ``let_go`` the request is ended 1 s later. Returns the car's speed 10 s on (m/s)."""

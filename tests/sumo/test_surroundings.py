@@ -183,3 +183,44 @@ def test_a_stopped_car_and_the_queue_behind_it_block_the_lane_together():
         assert builder.passing_lanes(observation, target_lane=1) == frozenset({0, 2})
         assert builder.corridor(observation, target_lane=1) == pytest.approx((5.25, -5.25), abs=0.01)
         assert builder.build(observation, world.ego_state, target_lane=1).blockages == (blockage.tail,)
+        # The tail standing 1.2 m right of its lane (as in a rescue lane): the disc stays on the lane's centre
+        # line (the band "in line" is the lane's) and carries the car's offset (how far aside counts from it).
+        assert blockage.tail.lateral_offset_m == pytest.approx(tail.lateral_offset_m, abs=1e-9)
+        heading = tail.heading_rad
+        aside = dataclasses.replace(tail, lateral_offset_m=tail.lateral_offset_m - 1.2,
+                                    x_m=tail.x_m + 1.2 * math.sin(heading), y_m=tail.y_m - 1.2 * math.cos(heading))
+        shifted = dataclasses.replace(observation, traffic=tuple(aside if v.id == tail.id else v
+                                                                 for v in observation.traffic))
+        (moved,) = builder.queues(shifted)
+        assert (moved.tail.x_m, moved.tail.y_m) == pytest.approx((blockage.tail.x_m, blockage.tail.y_m), abs=1e-9)
+        assert moved.tail.lateral_offset_m == pytest.approx(tail.lateral_offset_m - 1.2, abs=1e-9)
+
+
+def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_in():
+    """The ego in the right lane, a queue (a stopped car and two behind it) ahead in the centre lane that J1
+    tracks: J1's reference moves to the right lane's centre (3.5 m right), until the stopped car is behind the
+    ego; switched off, or with the ego in the centre lane, it stays on the tracked lane."""
+    from agentic_mpc.sumo.config import StaticObstacle
+
+    obstacle = StaticObstacle(id="stopped", lane="center", pos_m=280.0)
+    queue = (VehicleSpawn(id="queued1", lane="center", pos_m=273.0, lane_changes=False),
+             VehicleSpawn(id="queued2", lane="center", pos_m=266.0, lane_changes=False))
+    beside = curvy_config(obstacles=(obstacle,), vehicles=queue,
+                          ego=EgoStart(lane="right", pos_m=220.0, speed_mps=15.0),
+                          surroundings=SurroundingsConfig(edges="corridor"))
+    with SumoWorld(beside) as world:
+        builder, observation = builder_of(world), world.observation
+        assert observation.ego.lane_index == 0 and builder.queues(observation)[0].members == ("queued1", "queued2")
+        surroundings = builder.build(observation, world.ego_state, target_lane=1)
+        assert surroundings.reference_shift_m == pytest.approx(-3.5, abs=0.01)  # the lanes measured mid-road
+        # The corridor is the right lane's (the queue's lane is not one to pull into beside it).
+        assert builder.corridor(observation, target_lane=0) == pytest.approx((-1.75, -5.25), abs=0.01)
+        # Past the stopped car (seen as behind the ego), the detour ends.
+        past = dataclasses.replace(observation, obstacles=tuple(dataclasses.replace(o, relation="behind")
+                                                                for o in observation.obstacles))
+        assert builder.build(past, world.ego_state, target_lane=1).reference_shift_m == 0.0
+        off = SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
+                                  SurroundingsConfig(edges="corridor", detour_beside_queues=False))
+        assert off.build(observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
+    with SumoWorld(beside.replace(ego=EgoStart(lane="center", pos_m=220.0, speed_mps=15.0))) as world:
+        assert builder_of(world).build(world.observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
