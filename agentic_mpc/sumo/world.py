@@ -354,7 +354,7 @@ class SumoWorld:
 
     def _step_sumo(self) -> None:
         """One SUMO step; with rescue lanes, drivers an emergency vehicle has passed (or that stand behind a
-        stopped obstacle) are released once a second."""
+        stopped obstacle with it standing behind them) are released once a second."""
         self._bridge.step()
         self._sumo_steps += 1
         if self.rescue_lanes and self._sumo_steps % _RELEASE_EVERY_STEPS == 0:

@@ -8,10 +8,10 @@ import libsumo
 
 from agentic_mpc.sumo.bridge.base import _LIBSUMO_ERRORS, BridgeState
 from agentic_mpc.sumo.options import error_message as _message
+from agentic_mpc.sumo.queues import QUEUE_STANDING_MPS
 from agentic_mpc.sumo.records import SumoError
 
 _SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (every kind of change, respecting others)
-_STANDING_MPS = 0.5  # a driver slower than this behind a stopped obstacle is blocked there
 _GAP_CHANGE_RATE = 1.0  # openGap: how fast the follower's headway moves to the requested one (per s)
 
 
@@ -79,9 +79,9 @@ class DriverCommands(BridgeState):
         """Whether ``vehicle_id`` and the emergency vehicle it makes way for both stand (< 0.5 m/s), with a stopped
         obstacle its leader within ``within_m``. Released while the emergency vehicle still came up, such drivers
         pulled out into its way (on seeds 900-919 its median delay grew from 34 to 42 s)."""
-        if within_m is None or libsumo.vehicle.getSpeed(emergency_id) >= _STANDING_MPS:
+        if within_m is None or libsumo.vehicle.getSpeed(emergency_id) >= QUEUE_STANDING_MPS:
             return False
-        if libsumo.vehicle.getSpeed(vehicle_id) >= _STANDING_MPS:
+        if libsumo.vehicle.getSpeed(vehicle_id) >= QUEUE_STANDING_MPS:
             return False
         leader = libsumo.vehicle.getLeader(vehicle_id, within_m)
         return bool(leader) and leader[0] in self._stopped and leader[1] <= within_m
