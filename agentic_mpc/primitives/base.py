@@ -131,6 +131,9 @@ class Surroundings:
     reference_shift_m: float = 0.0
     """J1 follows its path shifted this far to the left (negative: right): the lane the ego passes a blockage
     of its tracked lane in, on a road whose lanes run parallel (:class:`~agentic_mpc.primitives.PathTracking`)."""
+    reference_speed_cap_mps: float | None = None
+    """J1's reference speed is at most this: coming up to a queue in the lane J1 follows, a speed it can stop
+    from with room to pull out (the horizon alone sees 2 s ahead: at 15 m/s, less than the way to stop)."""
 
 
 @dataclass(frozen=True, slots=True)

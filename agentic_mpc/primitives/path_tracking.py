@@ -102,9 +102,11 @@ class PathTracking(Primitive):
         from agentic_mpc.primitives.reference_kernel import reference_points  # compiled: load on first use
 
         x, y, _, v = (float(value) for value in context.state)
-        v_start = max(v, min(self.v_ref_mps, self.reference_start_mps))
+        cap = context.surroundings.reference_speed_cap_mps
+        v_ref = self.v_ref_mps if cap is None else min(self.v_ref_mps, cap)
+        v_start = max(v, min(v_ref, self.reference_start_mps))
         points, tangents = reference_points(
-            self.path, x, y, v_start, self.v_ref_mps, self.reference_accel_mps2, context.dt_s, context.horizon
+            self.path, x, y, v_start, v_ref, self.reference_accel_mps2, context.dt_s, context.horizon
         )
         shift = context.surroundings.reference_shift_m
         if shift:  # the lane beside, passing a blockage of this one: along the left normal (-t_y, t_x)

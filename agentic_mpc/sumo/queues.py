@@ -91,6 +91,26 @@ def find_queues(observation: Observation, cover_of: Callable[[VehicleObservation
     return tuple(queues)
 
 
+APPROACH_CRAWL_MPS = 2.0
+"""J1's reference coming up to a queue slows to no less than this (nor does its ramp start lower,
+``PathTracking.reference_start_mps``): the last metres, and the stop, are J0's queue room."""
+
+
+def approach_speed_cap_mps(queues: tuple[Queue, ...], lane_index: int, decel_mps2: float,
+                           pull_out_room_m: Callable[[float], float]) -> float | None:
+    """The speed from which braking at ``decel_mps2`` stops the ego ``pull_out_room_m(aside)`` behind the
+    nearest queue with cars in it in ``lane_index`` (aside: its tail's cover radius), at least
+    ``APPROACH_CRAWL_MPS``; None without such a queue. A lone stopped car is left to J2, as in the paper."""
+    gaps = [(q.tail_gap_m, q.tail.radius_m) for q in queues if q.lane_index == lane_index and q.members]
+    if not gaps:
+        return None
+    gap_m, aside_m = min(gaps)
+    room_m = pull_out_room_m(aside_m)
+    if not math.isfinite(room_m):
+        return APPROACH_CRAWL_MPS
+    return max(APPROACH_CRAWL_MPS, math.sqrt(2.0 * decel_mps2 * max(0.0, gap_m - room_m)))
+
+
 def drives_up_to_a_queue(queues: tuple[Queue, ...], vehicle: VehicleObservation) -> bool:
     """Whether ``vehicle``'s front is within ``QUEUE_APPROACH_M`` behind a queue's tail in its lane."""
     front_s = vehicle.road_s_m + 0.5 * vehicle.length_m

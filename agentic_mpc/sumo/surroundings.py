@@ -51,7 +51,15 @@ from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.covers import DiscCover, disc_cover
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
 from agentic_mpc.sumo.network import Road
-from agentic_mpc.sumo.queues import QUEUE_LEADER_WITHIN_M, Detour, Queue, drives_up_to_a_queue, find_queues
+from agentic_mpc.sumo.queues import (
+    QUEUE_LEADER_WITHIN_M,
+    Detour,
+    Queue,
+    approach_speed_cap_mps,
+    drives_up_to_a_queue,
+    find_queues,
+)
+from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
 from agentic_mpc.world.observation import Observation, VehicleObservation
 
 CUT_IN_LOOKAHEAD_S = 1.0
@@ -70,8 +78,10 @@ class SurroundingsBuilder:
         horizon: int,
         dt_s: float,
         config: SurroundingsConfig = SurroundingsConfig(),
+        params: VehicleParams = PAPER_PARAMS,
     ) -> None:
         self.road = road
+        self.params = params  # the ego's geometry: the room it needs to pull out round a queue
         self.ego_length_m = ego_length_m
         self.ego_width_m = ego_width_m
         # J0's covers assume the ego aligned with each vehicle; turned, its corners reach further (MovingDisc)
@@ -356,5 +366,9 @@ class SurroundingsBuilder:
         # Queued nose to tail already (the tail is then a time-gap leader): the room behind it is lost, and
         # asking for it made the ego steer and creep into the car (ego_into_stopped at 0.2 m/s, seeds 0-2).
         blockages = tuple(queue.tail for queue in self.queues(observation) if not queue.nose_to_tail)
+        cap = None
+        if self.config.approach_decel_mps2 is not None and observation.ego.lane_index == target_lane:
+            cap = approach_speed_cap_mps(self.queues(observation), target_lane, self.config.approach_decel_mps2,
+                                         self.params.pull_out_distance_m)
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
-                            blockages=blockages, reference_shift_m=shift)
+                            blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=cap)

@@ -317,7 +317,8 @@ class SumoWorld:
         builder = self._surroundings.get(horizon)
         if builder is None:
             builder = self._surroundings[horizon] = SurroundingsBuilder(
-                self.road, self.ego_length_m, self.ego_width_m, horizon, self.dt_s, self.config.surroundings
+                self.road, self.ego_length_m, self.ego_width_m, horizon, self.dt_s, self.config.surroundings,
+                self.params,
             )
         return builder.build(self.observation, self._state, self.lane_index_of(tracked_path))
 

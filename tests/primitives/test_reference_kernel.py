@@ -52,3 +52,21 @@ def test_a_shifted_reference_runs_along_the_lane_beside():
     assert np.allclose(shifted.points - plain.points, -3.5 * normal, rtol=0, atol=1e-12)
     # The circle's centre is on the left: shifted right, every point is 3.5 m further out (radius 53.5 m).
     assert np.allclose(np.hypot(*shifted.points.T), np.hypot(*plain.points.T) + 3.5, atol=0.02)
+
+
+def test_a_speed_cap_slows_the_reference_as_a_lower_v_ref_would():
+    """Surroundings.reference_speed_cap_mps (coming up to a queue): J1's points are those of v_ref = the cap
+    (a ramp down from the ego's speed at reference_accel_mps2); a cap above v_ref changes nothing."""
+    from agentic_mpc.controller import FourierMPPI
+    from agentic_mpc.primitives import PathTracking, Surroundings
+
+    controller = FourierMPPI(seed=0)
+    state = np.array([10.0, 0.0, 0.0, 15.0])
+    j1 = PathTracking(path=STRAIGHT.coordinates.tolist(), v_ref_mps=15.0)
+    capped = j1.prepare(controller.context(state, Surroundings(reference_speed_cap_mps=6.0))).reference.points
+    slower = PathTracking(path=STRAIGHT.coordinates.tolist(), v_ref_mps=6.0)
+    assert np.array_equal(capped, slower.prepare(controller.context(state, Surroundings())).reference.points)
+    # Down at 3 m/s^2 from 15 m/s: the first step 15 - 0.12 m/s, so 0.04 * 14.88 m further along.
+    assert capped[0, 0] == pytest.approx(10.0 + 0.04 * (15.0 - 3.0 * 0.04), abs=1e-9)
+    above = j1.prepare(controller.context(state, Surroundings(reference_speed_cap_mps=20.0))).reference.points
+    assert np.array_equal(above, j1.prepare(controller.context(state, Surroundings())).reference.points)

@@ -224,3 +224,39 @@ def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_i
         assert off.build(observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
     with SumoWorld(beside.replace(ego=EgoStart(lane="center", pos_m=220.0, speed_mps=15.0))) as world:
         assert builder_of(world).build(world.observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
+
+
+def test_coming_up_to_a_queue_j1_slows_to_a_speed_it_can_stop_from_with_room():
+    """A queue (a stopped car, two behind it) ahead in the ego's lane: J1's reference speed is capped at the
+    speed from which braking at approach_decel_mps2 stops the ego the model's pull-out room behind the last car
+    (at least 2 m/s); a lone stopped car (the paper's Scenario 1), the ego in the lane beside, or the cap off
+    (the default): no cap."""
+    from agentic_mpc.sumo.config import StaticObstacle
+    from agentic_mpc.vehicle import PAPER_PARAMS
+
+    obstacle = StaticObstacle(id="stopped", lane="center", pos_m=295.0)
+    queue = (VehicleSpawn(id="queued1", lane="center", pos_m=288.0, lane_changes=False),
+             VehicleSpawn(id="queued2", lane="center", pos_m=281.0, lane_changes=False))
+    on = SurroundingsConfig(edges="corridor", approach_decel_mps2=2.0)
+    config = curvy_config(obstacles=(obstacle,), vehicles=queue, surroundings=on)
+    with SumoWorld(config) as world:
+        builder, observation = builder_of(world), world.observation
+        (blockage,) = builder.queues(observation)
+        room = PAPER_PARAMS.pull_out_distance_m(blockage.tail.radius_m)
+        assert 5.0 < room < 7.0 and blockage.tail_gap_m > room + 20.0
+        cap = builder.build(observation, world.ego_state, target_lane=1).reference_speed_cap_mps
+        assert cap == pytest.approx(math.sqrt(2.0 * 2.0 * (blockage.tail_gap_m - room)), rel=1e-12)
+        assert cap < 15.0
+        nearly_there = dataclasses.replace(blockage, tail_gap_m=room + 0.3)
+        from agentic_mpc.sumo.queues import approach_speed_cap_mps
+
+        assert approach_speed_cap_mps((nearly_there,), 1, 2.0, PAPER_PARAMS.pull_out_distance_m) == 2.0
+        assert approach_speed_cap_mps((nearly_there,), 0, 2.0, PAPER_PARAMS.pull_out_distance_m) is None
+        alone = dataclasses.replace(blockage, members=())
+        assert approach_speed_cap_mps((alone,), 1, 2.0, PAPER_PARAMS.pull_out_distance_m) is None
+        off = SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
+                                  SurroundingsConfig(edges="corridor"))  # the default: off
+        assert off.build(observation, world.ego_state, target_lane=1).reference_speed_cap_mps is None
+    with SumoWorld(config.replace(ego=EgoStart(lane="right", pos_m=220.0, speed_mps=15.0))) as world:
+        surroundings = builder_of(world).build(world.observation, world.ego_state, target_lane=1)
+        assert surroundings.reference_speed_cap_mps is None  # passing it in the lane beside (the detour's)
