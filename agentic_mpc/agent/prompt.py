@@ -51,8 +51,10 @@ def describe_road(road: dict[str, Any] | None) -> list[str]:
     if traffic := _text(road.get("traffic")):
         keep_to = _text(road.get("keep_to"))
         facts.append(f"{traffic} traffic" + (f" (vehicles keep to the {keep_to})" if keep_to else ""))
+    road_type = _text(road.get("road_type"))
     if (limit := _number(road.get("speed_limit_mps"))) is not None:
-        facts.append(f"speed limit {limit:g} m/s ({limit * 3.6:g} km/h)")
+        what = f"a {road_type} with no speed signed, the fastest the tools accept" if road_type else "speed limit"
+        facts.append(f"{what} {limit:g} m/s ({limit * 3.6:g} km/h)")
     head = f"The road: {'; '.join(facts)}." if facts else "The road."
     lines = [head, "Lanes (by the names the tools use), from the road edge outwards:"]
     for lane in road["lanes"]:
@@ -72,6 +74,9 @@ def describe_road(road: dict[str, Any] | None) -> list[str]:
         lines.append(f"Jurisdiction: {jurisdiction}: its traffic rules apply (how to make way for an emergency "
                      "vehicle, speed limits); look them up with a knowledge search tool where there is one and "
                      "cite the document you follow.")
+        if road_type:
+            lines.append(f"Before setting a speed, look up the speed limit for a {road_type} in {jurisdiction} and "
+                         "keep to it (the tools accept up to the road's design speed).")
     return lines
 
 

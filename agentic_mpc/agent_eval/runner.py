@@ -194,7 +194,8 @@ def run_suite(suite: Suite, cases: Sequence[Case], make_backend: BackendFactory,
                 backend = make_backend(world.lefthand)  # per case: a fresh backend state (and event loop)
                 if not checked:  # the suite's tool names against what this server lists
                     with Agent(KeepOpen(backend), world.loop.server, config, other_servers=world.others) as probe:
-                        _check_tools(cases, {t.name for t in probe.tools}, suite)
+                        # this world's cases only: a two-lane road has no centre lane tool
+                        _check_tools([c for c in cases if c.world == name], {t.name for t in probe.tools}, suite)
                     checked = True
                 result = run_case(case, world, backend, config)
                 by_case[case.id] = result

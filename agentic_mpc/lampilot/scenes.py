@@ -20,8 +20,9 @@ From each sample's ``env``, as the README beside LaMPilot's data describes its s
   not LaMPilot's; the README says so.)
 - The evaluator's 3 s warm-up: SUMO drives the other vehicles alone for 3 s; the ego then enters where it would
   be after 3 s at its start speed (at most the limit), at the limit or, with a leader within 50 m, at the
-  leader's speed (predicted at its own speed: IDM drivers in free flow keep theirs), and the command arrives;
-  never faster than SUMO accepts behind the car ahead (:func:`entry_speed_limit`).
+  leader's speed (predicted at its own speed: IDM drivers in free flow keep theirs, and then read from SUMO
+  as the ego enters: a driver may have braked meanwhile), and the command arrives; never faster than SUMO
+  accepts behind the car ahead (:func:`entry_speed_limit`, ``EgoStart.match_leader_within_m``).
 
 highway-env numbers lanes from the left (0 = left-most); SUMO from the right edge: index = lanes - 1 - i.
 """
@@ -35,6 +36,7 @@ import numpy as np
 
 from agentic_mpc.lampilot.criteria import TIME_LIMIT_S
 from agentic_mpc.lampilot.dataset import Case
+from agentic_mpc.sumo.insertion import entry_speed_mps
 
 SPEED_LIMIT_MPS = 31.29
 WARMUP_S = 3.0
@@ -97,12 +99,6 @@ def traffic(env: dict[str, Any], seed: int, ego_x_m: float, lanes: int, shoulder
     return vehicles
 
 
-def secure_gap_m(speed_mps: float, leader_speed_mps: float) -> float:
-    """The gap SUMO wants before it inserts the ego behind a leader (Krauss: v tau + v^2 / 2b minus the
-    leader's braking distance, plus the ego's minGap; the ego's tau 1 s, b 6 m/s^2; the cars' b 5 m/s^2)."""
-    return max(0.0, speed_mps * 1.0 + speed_mps ** 2 / 12.0 - leader_speed_mps ** 2 / 10.0) + 2.5
-
-
 def entry_speed_limit(ego_x_m: float, lane: int, others: list[dict[str, Any]]) -> float:
     """The fastest the ego may enter behind the nearest vehicle in its lane (predicted after the warm-up)
     without SUMO refusing to insert it there (10 % margin): at LaMPilot's speed a car 50-60 m ahead at
@@ -115,10 +111,7 @@ def entry_speed_limit(ego_x_m: float, lane: int, others: list[dict[str, Any]]) -
     gap, _ = min(ahead)
     # the nearest car slows to the slowest one close ahead of it (IDM), so that one's speed counts
     leader_speed = min(speed for g, speed in ahead if g <= gap + 100.0)
-    speed = SPEED_LIMIT_MPS
-    while speed > 0.0 and 1.1 * secure_gap_m(speed, leader_speed) > gap:
-        speed -= 0.5
-    return max(speed, 0.0)
+    return entry_speed_mps(gap, leader_speed, SPEED_LIMIT_MPS)
 
 
 def case_scenario(case: Case, agent: dict[str, Any], nets_dir: Path) -> Any:  # -> Scenario
@@ -159,7 +152,7 @@ def case_scenario(case: Case, agent: dict[str, Any], nets_dir: Path) -> Any:  # 
             "road": net,
             "warmup_s": WARMUP_S,
             "ego": {"lane": sumo_lane(start_lane), "pos_m": round(ego_x + 0.5 * EGO_LENGTH_M, 3),
-                    "speed_mps": round(speed, 3)},
+                    "speed_mps": round(speed, 3), "match_leader_within_m": LEADER_SPEED_RANGE_M},
             "vehicles": vehicles,
             "surroundings": {"range_ahead_m": 120.0},
         },

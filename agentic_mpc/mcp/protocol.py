@@ -82,7 +82,8 @@ VEHICLE_URI_TEMPLATE = "sumo://vehicle/{vehicle_id}"
 ROAD_URI = "sumo://road"
 """The ego's road: its lanes (``left``/``center``/``right`` as the tools name them, SUMO index, role),
 ``traffic`` (``left-hand`` or ``right-hand``), ``edge_lane`` (where to pull over to yield), ``speed_limit_mps``,
-and one plain-English sentence each on what ``yield`` and ``resume`` mean there (see mcp/road.py)."""
+and one plain-English sentence each on what ``yield`` and ``resume`` mean there (see mcp/road.py); the scenario's
+``jurisdiction`` and ``road_type`` where it names them."""
 
 SPECIFICATION_URI = "mpc://specification"
 """The specification attached now, its version and the pending scheduled changes."""

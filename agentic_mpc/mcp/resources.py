@@ -46,7 +46,8 @@ _LISTS = {"traffic", "emergency_vehicles", "obstacles", "collisions"}
 
 
 def register_resources(server: MCPServer, tools: ControllerTools, latest_observation: ObservationSource,
-                       lane_index: LaneIndex | None = None, jurisdiction: str | None = None) -> None:
+                       lane_index: LaneIndex | None = None, jurisdiction: str | None = None,
+                       road_type: str | None = None) -> None:
     """Register every resource on ``server``."""
     slot = tools.slot
     for uri, name, description, keys in OBSERVATION_SLICES:
@@ -71,7 +72,8 @@ def register_resources(server: MCPServer, tools: ControllerTools, latest_observa
         tracking = slot.initial.get("path_tracking")
         described = describe_road(tools.road(), getattr(tracking, "lane", None),
                                   getattr(tracking, "v_ref_mps", None), lane_index)
-        return to_json({**described, "jurisdiction": jurisdiction} if jurisdiction else described)
+        rules = {key: value for key, value in (("jurisdiction", jurisdiction), ("road_type", road_type)) if value}
+        return to_json({**described, **rules})
 
     @server.resource(SPECIFICATION_URI, name="specification",
                      description="The control specification attached now, its version and pending changes.",

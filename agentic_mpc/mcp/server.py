@@ -160,7 +160,8 @@ class AgenticMPCServer:
     agent accepts this object itself and connects to that attribute). Call :meth:`publish_observation` after
     every simulation step (any thread) to notify listening clients. ``lane_index`` (the world's
     ``lane_index_of``) gives ``sumo://road`` the world's lane indices, ``jurisdiction`` (the scenario's: ``JP``,
-    ``DE``, ...) whose traffic rules apply there.
+    ``DE``, ...) whose traffic rules apply there, ``road_type`` (``motorway``, ``rural``, ``urban``) which of its
+    speed limits.
     """
 
     def __init__(
@@ -174,6 +175,7 @@ class AgenticMPCServer:
         on_tool_call: ToolCallHook | None = None,
         lane_index: LaneIndex | None = None,
         jurisdiction: str | None = None,
+        road_type: str | None = None,
     ) -> None:
         self.tools = tools
         self.lane_index = lane_index
@@ -193,7 +195,7 @@ class AgenticMPCServer:
             log_level="WARNING",
         )
         self.server.on_tool_call = on_tool_call
-        register_resources(self.server, tools, latest_observation, lane_index, jurisdiction)
+        register_resources(self.server, tools, latest_observation, lane_index, jurisdiction, road_type)
         tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
 
     @property

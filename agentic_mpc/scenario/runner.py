@@ -54,7 +54,8 @@ def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True,
                      plan_stride=scenario.outputs.plan_stride if scenario.outputs.replay else 0),
         controller=scenario.controller, seed=scenario.seed, messages=scenario.messages, agent=agent,
         steering_template=steering_template(scenario.specification),
-        server_options={**({"jurisdiction": scenario.jurisdiction} if scenario.jurisdiction else {}),
+        server_options={**{key: value for key in ("jurisdiction", "road_type")
+                           if (value := getattr(scenario, key)) is not None},
                         **(server_options or {})},
     )
 

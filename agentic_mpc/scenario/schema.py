@@ -109,6 +109,9 @@ class Scenario(FrozenConfig):
     jurisdiction: str | None = Field(
         None, pattern=r"^[A-Z]{2}(-[A-Z0-9]{1,3})?$", description="whose traffic rules apply (JP, DE, UK, US-CA, ...): "
         "sumo://road says it; an agent with the knowledge server looks the rules up (docs/knowledge.md)")
+    road_type: Literal["motorway", "rural", "urban"] | None = Field(
+        None, description="the road's type where no speed is signed: the jurisdiction's limit for it applies below "
+        "the network's lane speed (its design speed), and an agent with the knowledge server looks it up")
     outputs: OutputSettings = OutputSettings()
     variant: str = Field("base", description="set by the loader")
 
@@ -177,6 +180,8 @@ class Scenario(FrozenConfig):
                 raise ValueError(
                     f"messages[{i}].at_s = {message.at_s} s is past the end of the run (duration_s = {self.duration_s})"
                 )
+        if self.road_type is not None and self.jurisdiction is None:
+            raise ValueError(f"road_type = {self.road_type!r} needs a jurisdiction (whose limit for it applies)")
         return self
 
     def with_seed(self, seed: int) -> Scenario:

@@ -85,6 +85,11 @@ class EgoStart(FrozenConfig):
     pos_m: float = Field(30.0, ge=0, description="front-bumper lane position")
     speed_mps: float = Field(15.0, ge=0, le=60)
     lateral_offset_m: float = Field(0.0, description="start this far left (+) of the lane centre")
+    match_leader_within_m: float | None = Field(
+        None, gt=0,
+        description="as the ego enters (after any warm-up): a vehicle ahead in its lane within this bumper gap sets"
+        " its speed (never above speed_mps), lowered until SUMO accepts the gap (LaMPilot's evaluator)",
+    )
 
 
 class _Placed(FrozenConfig):
@@ -205,6 +210,13 @@ class SumoConfig(FrozenConfig):
     sensing_range_m: float = Field(150.0, gt=0)
     keep_route: Literal[2, 3] = Field(3, description="moveToXY keepRoute for the ego (see SumoBridge)")
     surroundings: SurroundingsConfig = SurroundingsConfig()
+    edge_out_min_gap_m: float | None = Field(
+        None, gt=0,
+        description="SUMO's drivers standing at their minGap behind a stopped obstacle for edge_out_after_s get this"
+        " minGap (0.5 m resolves the deadlock of incident_in_traffic seed 913) so that its lane-change model lets"
+        " them edge out; None (the default: mixed on seeds 1000-1009, docs/traffic.md): SUMO's own minGap",
+    )
+    edge_out_after_s: int = Field(10, ge=1, le=600, description="see edge_out_min_gap_m (whole seconds)")
     announce_lane_changes: bool = Field(
         True,
         description="SUMO's drivers told of the ego's lane changes (its plan): followers in the lane it enters asked"

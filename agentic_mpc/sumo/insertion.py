@@ -28,6 +28,21 @@ INSERT_ATTEMPTS = 20
 """Free gaps tried (nearest first) when the ego's requested spot stays occupied."""
 
 
+def secure_gap_m(speed_mps: float, leader_speed_mps: float) -> float:
+    """The gap SUMO wants before it inserts the ego behind a leader (Krauss: v tau + v^2 / 2b minus the
+    leader's braking distance, plus the ego's minGap; the ego's tau 1 s, b 6 m/s^2; the cars' b 5 m/s^2)."""
+    return max(0.0, speed_mps * 1.0 + speed_mps ** 2 / 12.0 - leader_speed_mps ** 2 / 10.0) + 2.5
+
+
+def entry_speed_mps(gap_m: float, leader_speed_mps: float, speed_mps: float) -> float:
+    """The fastest speed up to ``speed_mps`` (in 0.5 m/s steps) at which SUMO inserts the ego ``gap_m`` behind
+    a leader at ``leader_speed_mps``, with a 10 % margin on the secure gap."""
+    speed = speed_mps
+    while speed > 0.0 and 1.1 * secure_gap_m(speed, leader_speed_mps) > gap_m:
+        speed -= 0.5
+    return max(speed, 0.0)
+
+
 def free_spots(
     vehicles: Sequence[tuple[float, float, float, float]],
     lane_length_m: float,

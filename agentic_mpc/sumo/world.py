@@ -29,7 +29,7 @@ from agentic_mpc.primitives import Circle, Surroundings
 from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
 from agentic_mpc.sumo.covers import obstacle_circles
-from agentic_mpc.sumo.insertion import insert_at_free_gap
+from agentic_mpc.sumo.insertion import entry_speed_mps, insert_at_free_gap
 from agentic_mpc.sumo.intention import IntentionReader
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
@@ -182,9 +182,11 @@ class SumoWorld:
                 for _ in range(round(c.warmup_s / self.dt_s)):
                     self._step_sumo()
             start = self._ego_start
+            if c.ego.match_leader_within_m is not None:
+                self._state[3] = self._speed_behind_leader(start, c.ego.match_leader_within_m)
             self._bridge.add_external_vehicle(
                 c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
-                pos_m=start.pos_m, speed_mps=c.ego.speed_mps, wait=False,
+                pos_m=start.pos_m, speed_mps=float(self._state[3]), wait=False,
             )
             if c.warmup_s == 0.0:
                 self._add_spawns()
@@ -214,20 +216,37 @@ class SumoWorld:
         c, bridge = self.config, self._bridge
         requested_s = bridge.time_s
         steps = bridge.wait_until_inserted(c.ego_id, max(1, round(c.ego_insert_wait_s / self.dt_s)), withdraw=True)
-        pos = start.pos_m
+        pos, speed_mps = start.pos_m, float(self._state[3])
         if steps is None:
             pos = insert_at_free_gap(
                 bridge, c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
                 lane_id=f"{start.edge_id}_{start.lane_index}", requested_pos_m=start.pos_m,
                 lane_length_m=self.network.edge(start.edge_id).getLane(start.lane_index).getLength(),
                 length_m=self._type_length(c.ego_type_id), min_gap_m=self._type_attribute(c.ego_type_id, "minGap", 2.5),
-                speed_mps=c.ego.speed_mps, fits=lambda p: self._fits(start, p), wait_steps=round(0.5 / self.dt_s),
+                speed_mps=speed_mps, fits=lambda p: self._fits(start, p), wait_steps=round(0.5 / self.dt_s),
             )
             self._state = self._initial_state(_Resolved(start.edge_id, start.lane_index, pos))
+            self._state[3] = speed_mps
         self.ego_start = {
             "edge_id": start.edge_id, "lane_index": start.lane_index, "requested_pos_m": start.pos_m,
             "pos_m": pos, "requested_at_s": requested_s, "inserted_at_s": bridge.time_s,
         }
+        if speed_mps != c.ego.speed_mps:  # matched to the leader it entered behind
+            self.ego_start["speed_mps"] = speed_mps
+
+    def _speed_behind_leader(self, start: _Resolved, within_m: float) -> float:
+        """The ego's entry speed where a vehicle stands within ``within_m`` ahead of its spot in SUMO now: that
+        vehicle's speed (not above the configured one), lowered until SUMO accepts the gap."""
+        speed = self.config.ego.speed_mps
+        ahead = [(pos - length - start.pos_m, v) for pos, length, _, v in
+                 self._bridge.lane_vehicles(f"{start.edge_id}_{start.lane_index}") if pos - length > start.pos_m]
+        if not ahead:
+            return speed
+        gap_m, leader_speed = min(ahead)
+        if gap_m > within_m:
+            return speed
+        # the scene predicted where traffic would be; SUMO's drivers may have braked meanwhile
+        return entry_speed_mps(gap_m, leader_speed, min(speed, leader_speed))
 
     def _fits(self, start: _Resolved, pos_m: float) -> bool:
         """Whether the ego starting at ``pos_m`` on the start lane (with its lateral offset) is on the road."""
@@ -354,11 +373,16 @@ class SumoWorld:
         self._asked = asked
 
     def _step_sumo(self) -> None:
-        """One SUMO step; with rescue lanes, drivers an emergency vehicle has passed (or that stand behind a
-        stopped obstacle with it standing behind them) are released once a second."""
+        """One SUMO step; once a second, drivers that have stood at their minGap behind a stopped obstacle for
+        ``edge_out_after_s`` get room to edge out, and, with rescue lanes, drivers an emergency vehicle has passed (or that stand behind a stopped
+        obstacle with it standing behind them) are released."""
         self._bridge.step()
         self._sumo_steps += 1
-        if self.rescue_lanes and self._sumo_steps % _RELEASE_EVERY_STEPS == 0:
+        if self._sumo_steps % _RELEASE_EVERY_STEPS != 0:
+            return
+        if self.config.edge_out_min_gap_m is not None and self.config.obstacles:
+            self._bridge.edge_out_behind_obstacles(self.config.edge_out_min_gap_m, self.config.edge_out_after_s)
+        if self.rescue_lanes:
             rescue = self.config.rescue_lanes
             behind_m = rescue.release_behind_m or rescue.reaction_dist_m
             self._bridge.release_rescue_lanes(behind_m, self._route_types.lc_strategic, rescue.release_blocked_within_m)

@@ -92,18 +92,23 @@ def test_a_search_for_one_jurisdiction_keeps_its_documents_and_the_general_ones(
 
 def test_the_knowledge_cases_of_the_suite_find_their_document_in_the_top_3(base):
     """Search quality on the suite's knowledge cases, searched as the rules backend does (the place the
-    question names, else the road's): docs/knowledge.md reports it."""
-    from agentic_mpc.agent.backends.rules_knowledge import question_call
+    question names, else the road's; on a motorway with no speed signed, a speed's limit): docs/knowledge.md
+    reports it."""
+    from agentic_mpc.agent.backends.rules_knowledge import limit_search_call, question_call
     from agentic_mpc.agent_eval.suite import load_suite
 
     places = {"japan": "JP", "germany": "DE", "california": "US-CA"}
     cases = [c for c in load_suite().select(categories=["knowledge"]) if c.turns[0].cites]
     found = []
     for case in cases:
-        arguments = question_call(case.turns[0].message, places[case.world])[1]
+        place, _, motorway = case.world.partition("_")
+        if motorway:
+            arguments = limit_search_call(places[place], "motorway")[1]
+        else:
+            arguments = question_call(case.turns[0].message, places[case.world])[1]
         top = [p.doc_id for p in base.search(arguments["query"], 3, arguments.get("jurisdiction"))]
         found.append(any(doc in top for doc in case.turns[0].cites))
-    assert len(cases) == 19 and sum(found) == 19
+    assert len(cases) == 24 and sum(found) == 24
 
 
 def test_questions_written_without_the_documents_find_theirs_in_the_top_3(base):

@@ -25,7 +25,9 @@ TASKS: dict[str, tuple[list[str], dict[str, Any], dict[str, Any]]] = {
     "speed_rel": (["Slow down by 5 m/s."], motorway_env(), {"type": "ACCEvalbySpeed", "rel_speed": -5}),
     "gap_abs": (["Keep a following distance of 40 metres."], motorway_env(), {"type": "ACCEvalbyDistance", "distance": 40}),
     "lane_left": (["Please change to the left lane."], motorway_env(), {"type": "LaneChangeEval", "direction": "left"}),
-    "pass_left": (["Pass the car ahead in the left lane."], motorway_env(speed=31.29, density=0.9, count=3),
+    # a car to pass and nothing that blocks the passing lane at its speed (at density 0.9 a car there did, once
+    # the ego entered at the speed SUMO's leader had, not the one predicted for it)
+    "pass_left": (["Pass the car ahead in the left lane."], motorway_env(speed=31.29, density=0.5, count=3),
                   {"type": "OvertakeEval", "direction": "left"}),
     "shoulder": (["Pull onto the hard shoulder and stop."], shoulder_env(), {"type": "PullOverEval"}),
 }

@@ -111,3 +111,28 @@ def test_stopped_vehicle_stays_on_its_lane():
         assert (state.lane_id, state.speed_mps) == ("straight_1", 0.0)
         assert state.lane_pos_m == pytest.approx(200.0)
         assert (state.x_m, state.y_m) == pytest.approx((200.0 - 2.25, 0.0))
+
+
+def test_a_driver_standing_at_its_min_gap_behind_an_obstacle_gets_room_to_edge_out():
+    """SUMO's sublane model counts a car standing at its minGap behind a stopped one as overlapping it, and
+    with its neighbours standing to let it in, the road stood for good (incident_in_traffic seed 913)."""
+    import libsumo
+
+    with SumoBridge(NET, [ROUTES], lateral_resolution_m=0.4) as sumo:
+        sumo.add_stopped_vehicle("obstacle", "road", "obstacle", edge_id="straight", lane_index=1, pos_m=200.0)
+        sumo.step()
+        at_min_gap_m = 200.0 - libsumo.vehicle.getLength("obstacle") - 2.5
+        sumo.add_vehicle("close", "road", "car", lane_index=1, pos_m=at_min_gap_m, speed_mps=0.0)
+        sumo.add_vehicle("far", "road", "car", lane_index=0, pos_m=60.0, speed_mps=0.0)
+        sumo.step()
+        own_gap_m, obstacle_gap_m = libsumo.vehicle.getMinGap("close"), libsumo.vehicle.getMinGap("obstacle")
+        assert sumo.edge_out_behind_obstacles(0.2) == ("close",)
+        assert libsumo.vehicle.getMinGap("close") == 0.2
+        # a car standing far behind and the obstacle itself keep theirs
+        assert (libsumo.vehicle.getMinGap("far"), libsumo.vehicle.getMinGap("obstacle")) == (own_gap_m, obstacle_gap_m)
+        assert sumo.edge_out_behind_obstacles(0.2) == ()  # given once
+        for _ in range(500):  # it pulls out past the obstacle: its own minGap back
+            sumo.step()
+        assert libsumo.vehicle.getLaneIndex("close") != 1 or libsumo.vehicle.getLanePosition("close") > 200.0
+        sumo.edge_out_behind_obstacles(0.2)
+        assert libsumo.vehicle.getMinGap("close") == own_gap_m

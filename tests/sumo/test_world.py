@@ -334,3 +334,22 @@ def test_a_vehicle_without_room_to_enter_is_reported():
     with pytest.warns(UserWarning, match=r"SUMO has not inserted \['blocked'\] yet"):
         with SumoWorld(straight_config(vehicles=(blocked,))) as world:
             assert world.observation.vehicle("blocked") is None
+
+
+def test_the_ego_enters_at_the_speed_of_the_car_it_finds_close_ahead():
+    """``match_leader_within_m`` (LaMPilot's evaluator): the leader SUMO has within that gap as the ego enters
+    sets its speed, whatever the scene predicted; the ego then enters at its spot instead of far back."""
+    slow_car = VehicleSpawn(id="slow", lane="center", pos_m=95.0, speed_mps=8.0, max_speed_mps=8.0, lane_changes=False)
+    config = straight_config(vehicles=(slow_car,), warmup_s=2.0)
+    matched = config.replace(ego=EgoStart(lane="center", pos_m=100.0, speed_mps=15.0, match_leader_within_m=50.0))
+    with SumoWorld(matched) as world:
+        start = world.ego_start
+        assert start["pos_m"] == 100.0 and start["inserted_at_s"] == pytest.approx(2.04)
+        assert 0.0 < start["speed_mps"] <= 8.0 and world.ego_state[3] == start["speed_mps"]
+        assert world.observation.ego.speed_mps == pytest.approx(start["speed_mps"])
+    with SumoWorld(config.replace(ego=EgoStart(lane="center", pos_m=100.0, speed_mps=15.0))) as world:
+        assert "speed_mps" not in world.ego_start  # not asked: the configured speed, SUMO finding the room
+        assert world.ego_state[3] == 15.0
+    far = matched.replace(ego=EgoStart(lane="center", pos_m=100.0, speed_mps=15.0, match_leader_within_m=5.0))
+    with SumoWorld(far) as world:  # the car is further ahead than that: the configured speed
+        assert world.ego_state[3] == 15.0

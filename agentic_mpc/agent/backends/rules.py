@@ -124,14 +124,15 @@ class RulesBackend:
             asked = next((m for m in reversed(history) if m.role == "user"), None)
             if asked is not None:  # the rule looked up: now the call it calls for
                 plan = self.plan(asked.content, initial, current, {t.name: t for t in tools},
-                                 jurisdiction=knowledge.jurisdiction_of(history), found=last.content)
+                                 jurisdiction=knowledge.jurisdiction_of(history),
+                                 road_type=knowledge.road_type_of(history), found=last.content)
                 return self._reply(plan, current)
         if last.role == "tool":
             return BackendReply(self._summarise_results(history, current))
         if last.role != "user":
             return BackendReply("Waiting for a message.")
         plan = self.plan(last.content, initial, current, {t.name: t for t in tools},
-                         jurisdiction=knowledge.jurisdiction_of(history))
+                         jurisdiction=knowledge.jurisdiction_of(history), road_type=knowledge.road_type_of(history))
         return self._reply(plan, current)
 
     def _reply(self, plan: Plan, current: DrivingState) -> BackendReply:
@@ -151,10 +152,11 @@ class RulesBackend:
 
     def plan(
         self, text: str, initial: DrivingState, current: DrivingState, tools: dict[str, ToolSpec],
-        jurisdiction: str | None = None, found: str | None = None,
+        jurisdiction: str | None = None, found: str | None = None, road_type: str | None = None,
     ) -> Plan:
         """The tool calls for one message, given the initial and current driving state; with a
-        ``jurisdiction`` and a knowledge search tool a yield first looks the rule up (``found``: its result)."""
+        ``jurisdiction`` and a knowledge search tool a yield first looks the rule up (``found``: its result),
+        and so does a speed where the road names its ``road_type`` (the limit for it caps the speed)."""
         meaning = interpret(text)
         plan = Plan()
         looked_up = None
@@ -184,6 +186,16 @@ class RulesBackend:
         v_max = speeds.speed_limit(tools)
         explicit = speeds.explicit_speed(meaning, current, initial)
         wanted = explicit if explicit is not None else speeds.relative_speed(meaning, current, initial)
+        if (wanted or 0.0) > 0.0 and not (meaning.emergency or meaning.pull_over) and jurisdiction and road_type \
+                and knowledge.SEARCH_TOOL in tools:
+            if found is None:  # the limit of this type of road where it is: look it up first
+                plan.calls.append(knowledge.limit_search_call(jurisdiction, road_type))
+                plan.notes.append(f"Looking up the speed limit for a {road_type} in {jurisdiction}.")
+                return plan
+            if (rule := knowledge.speed_limit_rule(found, jurisdiction, road_type)) is not None:
+                limit_mps, line, cite = rule
+                v_max = limit_mps if v_max is None else min(v_max, limit_mps)
+                plan.notes.append(f"Following {cite}: \"{line}\"")
         speed, speed_note = speeds.clamped(wanted, v_max)
         explicit_speed, _ = speeds.clamped(explicit, v_max)
         if speed_note:

@@ -28,6 +28,8 @@ class BridgeState:
     _context_ego: str | None
     _emergency: set[str]
     _stopped: set[str]  # obstacles held by a stop
+    _edging_out: dict[str, float]  # drivers edging out behind an obstacle -> their own minGap
+    _edge_out_waits: dict[str, int]  # drivers standing at their minGap behind one -> calls in a row
     _external: dict[str, float]  # id -> length, for the centre/front conversion
     _pending_speeds: dict[str, tuple[float, float]]
     _waiting_external: dict[str, tuple[int, float]]

@@ -1,4 +1,5 @@
-"""Telling SUMO's drivers things: vType parameters, gaps to open for the ego, release from a rescue lane."""
+"""Telling SUMO's drivers things: vType parameters, gaps to open for the ego, release from a rescue lane, room
+to edge out from behind a stopped obstacle."""
 
 from __future__ import annotations
 
@@ -85,3 +86,41 @@ class DriverCommands(BridgeState):
             return False
         leader = libsumo.vehicle.getLeader(vehicle_id, within_m)
         return bool(leader) and leader[0] in self._stopped and leader[1] <= within_m
+
+    def edge_out_behind_obstacles(self, min_gap_m: float, after_calls: int = 1, at_gap_m: float = 0.5) -> tuple[str, ...]:
+        """Drivers found standing at their minGap (within ``at_gap_m`` of it) behind a stopped obstacle in
+        ``after_calls`` calls in a row get ``min_gap_m`` as their minGap, and their own back once the obstacle is
+        no longer their leader. SUMO's sublane model counts a car that stands at its minGap behind a stopped one
+        as overlapping it and blocked, and its neighbours stand to let it in for good (``incident_in_traffic``
+        seed 913: the whole road stood for 70 s; with 0.5 m it was out within 8 s). External and stopped vehicles
+        are left alone. Returns the ids given the room now."""
+        self._require_running()
+        edged = []
+        try:
+            present = set(libsumo.vehicle.getIDList())
+            for vehicle_id, own_gap_m in list(self._edging_out.items()):
+                if vehicle_id not in present:
+                    del self._edging_out[vehicle_id]
+                elif not self._stands_behind_obstacle(vehicle_id, None):
+                    libsumo.vehicle.setMinGap(vehicle_id, own_gap_m)
+                    del self._edging_out[vehicle_id]
+            waiting = {}
+            for vehicle_id in present - self._external.keys() - self._stopped - self._edging_out.keys():
+                if libsumo.vehicle.getSpeed(vehicle_id) < QUEUE_STANDING_MPS \
+                        and self._stands_behind_obstacle(vehicle_id, at_gap_m):
+                    waiting[vehicle_id] = self._edge_out_waits.get(vehicle_id, 0) + 1
+                    if waiting[vehicle_id] >= after_calls:
+                        self._edging_out[vehicle_id] = libsumo.vehicle.getMinGap(vehicle_id)
+                        libsumo.vehicle.setMinGap(vehicle_id, min_gap_m)
+                        edged.append(vehicle_id)
+            self._edge_out_waits = waiting
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail("giving drivers room to edge out behind an obstacle", error) from error
+        return tuple(edged)
+
+    def _stands_behind_obstacle(self, vehicle_id: str, within_m: float | None) -> bool:
+        """Whether a stopped obstacle is ``vehicle_id``'s leader (within ``within_m`` beyond its minGap; any
+        distance up to 10 m if None)."""
+        leader = libsumo.vehicle.getLeader(vehicle_id, 10.0)
+        return bool(leader) and leader[0] in self._stopped and (within_m is None or leader[1] <= within_m)
+
