@@ -214,7 +214,7 @@ class SumoConfig(FrozenConfig):
         None, gt=0,
         description="SUMO's drivers standing at their minGap behind a stopped obstacle for edge_out_after_s get this"
         " minGap (0.5 m resolves the deadlock of incident_in_traffic seed 913) so that its lane-change model lets"
-        " them edge out; None (the default: mixed on seeds 1000-1009, docs/traffic.md): SUMO's own minGap",
+        " them edge out; None (the default: not better on seeds 1000-1019, docs/traffic.md): SUMO's own minGap",
     )
     edge_out_after_s: int = Field(10, ge=1, le=600, description="see edge_out_min_gap_m (whole seconds)")
     announce_lane_changes: bool = Field(
