@@ -43,6 +43,22 @@ def entry_speed_mps(gap_m: float, leader_speed_mps: float, speed_mps: float) -> 
     return max(speed, 0.0)
 
 
+def speed_behind_leader(
+    vehicles: Sequence[tuple[float, float, float, float]], pos_m: float, within_m: float, speed_mps: float
+) -> float:
+    """The ego's entry speed at front-bumper position ``pos_m`` of a lane whose ``vehicles`` are (front-bumper
+    position, length, minGap, speed): with a vehicle ahead within ``within_m`` (bumper to bumper), that vehicle's
+    speed (not above ``speed_mps``), lowered until SUMO accepts the gap; else ``speed_mps``. A scene predicts
+    where traffic will be; SUMO's drivers may have braked meanwhile (LaMPilot's evaluator reads the leader)."""
+    ahead = [(pos - length - pos_m, speed) for pos, length, _, speed in vehicles if pos - length > pos_m]
+    if not ahead:
+        return speed_mps
+    gap_m, leader_speed = min(ahead)
+    if gap_m > within_m:
+        return speed_mps
+    return entry_speed_mps(gap_m, leader_speed, min(speed_mps, leader_speed))
+
+
 def free_spots(
     vehicles: Sequence[tuple[float, float, float, float]],
     lane_length_m: float,

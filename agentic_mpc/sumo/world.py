@@ -29,7 +29,7 @@ from agentic_mpc.primitives import Circle, Surroundings
 from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
 from agentic_mpc.sumo.covers import obstacle_circles
-from agentic_mpc.sumo.insertion import entry_speed_mps, insert_at_free_gap
+from agentic_mpc.sumo.insertion import insert_at_free_gap, speed_behind_leader
 from agentic_mpc.sumo.intention import IntentionReader
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
@@ -129,8 +129,8 @@ class SumoWorld:
             )
         return _Resolved(edge_id, index, pos_m)
 
-    def _initial_state(self, start: _Resolved) -> np.ndarray:
-        """Centre pose of the ego's start: front bumper at pos_m, shifted sideways by lateral_offset_m."""
+    def _initial_state(self, start: _Resolved, speed_mps: float | None = None) -> np.ndarray:
+        """Centre pose of the ego's start (front at pos_m, lateral_offset_m aside), at speed_mps or as configured."""
         x_front, y_front, phi = self.road.pose_on_lane(f"{start.edge_id}_{start.lane_index}", start.pos_m)
         ego_length = self._type_length(self.config.ego_type_id)
         offset = self.config.ego.lateral_offset_m
@@ -141,7 +141,7 @@ class SumoWorld:
                 f"ego start is off the road: centre ({x:.2f}, {y:.2f}) with lateral offset {offset} m is outside"
                 f" the carriageway ({self.road.width_m:.2f} m wide)"
             )
-        return np.array([x, y, phi, self.config.ego.speed_mps])
+        return np.array([x, y, phi, self.config.ego.speed_mps if speed_mps is None else speed_mps])
 
     def _type_length(self, type_id: str) -> float:
         """A vType's length from the route files (before SUMO runs; SUMO's default is 5 m)."""
@@ -183,7 +183,8 @@ class SumoWorld:
                     self._step_sumo()
             start = self._ego_start
             if c.ego.match_leader_within_m is not None:
-                self._state[3] = self._speed_behind_leader(start, c.ego.match_leader_within_m)
+                on_lane = self._bridge.lane_vehicles(f"{start.edge_id}_{start.lane_index}")
+                self._state[3] = speed_behind_leader(on_lane, start.pos_m, c.ego.match_leader_within_m, c.ego.speed_mps)
             self._bridge.add_external_vehicle(
                 c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
                 pos_m=start.pos_m, speed_mps=float(self._state[3]), wait=False,
@@ -201,8 +202,7 @@ class SumoWorld:
                 raise SumoError(f"SUMO did not insert the obstacles {missing} (their spot is occupied?)")
             waiting = [v.id for v in c.vehicles if v.depart_s is None and v.id not in present]
             if waiting:  # SUMO inserts them when their spot is free (its insertion rules), not now
-                warnings.warn(f"SUMO has not inserted {waiting} yet: no safe room at their start positions",
-                              stacklevel=3)
+                warnings.warn(f"SUMO has not inserted {waiting} yet: no safe room where they start", stacklevel=3)
         except (SumoError, WorldError) as error:
             self.close()
             raise WorldError(f"SUMO world set-up failed: {error}") from error
@@ -225,28 +225,10 @@ class SumoWorld:
                 length_m=self._type_length(c.ego_type_id), min_gap_m=self._type_attribute(c.ego_type_id, "minGap", 2.5),
                 speed_mps=speed_mps, fits=lambda p: self._fits(start, p), wait_steps=round(0.5 / self.dt_s),
             )
-            self._state = self._initial_state(_Resolved(start.edge_id, start.lane_index, pos))
-            self._state[3] = speed_mps
-        self.ego_start = {
-            "edge_id": start.edge_id, "lane_index": start.lane_index, "requested_pos_m": start.pos_m,
-            "pos_m": pos, "requested_at_s": requested_s, "inserted_at_s": bridge.time_s,
-        }
-        if speed_mps != c.ego.speed_mps:  # matched to the leader it entered behind
-            self.ego_start["speed_mps"] = speed_mps
-
-    def _speed_behind_leader(self, start: _Resolved, within_m: float) -> float:
-        """The ego's entry speed where a vehicle stands within ``within_m`` ahead of its spot in SUMO now: that
-        vehicle's speed (not above the configured one), lowered until SUMO accepts the gap."""
-        speed = self.config.ego.speed_mps
-        ahead = [(pos - length - start.pos_m, v) for pos, length, _, v in
-                 self._bridge.lane_vehicles(f"{start.edge_id}_{start.lane_index}") if pos - length > start.pos_m]
-        if not ahead:
-            return speed
-        gap_m, leader_speed = min(ahead)
-        if gap_m > within_m:
-            return speed
-        # the scene predicted where traffic would be; SUMO's drivers may have braked meanwhile
-        return entry_speed_mps(gap_m, leader_speed, min(speed, leader_speed))
+            self._state = self._initial_state(_Resolved(start.edge_id, start.lane_index, pos), speed_mps)
+        matched = {"speed_mps": speed_mps} if speed_mps != c.ego.speed_mps else {}  # to the leader it met
+        self.ego_start = {"edge_id": start.edge_id, "lane_index": start.lane_index, "requested_pos_m": start.pos_m,
+                          "pos_m": pos, "requested_at_s": requested_s, "inserted_at_s": bridge.time_s, **matched}
 
     def _fits(self, start: _Resolved, pos_m: float) -> bool:
         """Whether the ego starting at ``pos_m`` on the start lane (with its lateral offset) is on the road."""
@@ -373,19 +355,18 @@ class SumoWorld:
         self._asked = asked
 
     def _step_sumo(self) -> None:
-        """One SUMO step; once a second, drivers that have stood at their minGap behind a stopped obstacle for
-        ``edge_out_after_s`` get room to edge out, and, with rescue lanes, drivers an emergency vehicle has passed (or that stand behind a stopped
-        obstacle with it standing behind them) are released."""
+        """One SUMO step; once a second, drivers at their minGap behind a stopped obstacle get room to edge out (if
+        configured), and with rescue lanes those an emergency vehicle passed (or both stand behind one) are released."""
         self._bridge.step()
         self._sumo_steps += 1
         if self._sumo_steps % _RELEASE_EVERY_STEPS != 0:
             return
-        if self.config.edge_out_min_gap_m is not None and self.config.obstacles:
-            self._bridge.edge_out_behind_obstacles(self.config.edge_out_min_gap_m, self.config.edge_out_after_s)
+        c, rescue = self.config, self.config.rescue_lanes
+        if c.edge_out_min_gap_m is not None and c.obstacles:
+            self._bridge.edge_out_behind_obstacles(c.edge_out_min_gap_m, c.edge_out_after_s)
         if self.rescue_lanes:
-            rescue = self.config.rescue_lanes
-            behind_m = rescue.release_behind_m or rescue.reaction_dist_m
-            self._bridge.release_rescue_lanes(behind_m, self._route_types.lc_strategic, rescue.release_blocked_within_m)
+            self._bridge.release_rescue_lanes(rescue.release_behind_m or rescue.reaction_dist_m,
+                                              self._route_types.lc_strategic, rescue.release_blocked_within_m)
 
     def time_loss_s(self, vehicle_id: str) -> float | None:
         return self.bridge.time_loss_s(vehicle_id)

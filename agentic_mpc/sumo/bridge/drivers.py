@@ -87,7 +87,8 @@ class DriverCommands(BridgeState):
         leader = libsumo.vehicle.getLeader(vehicle_id, within_m)
         return bool(leader) and leader[0] in self._stopped and leader[1] <= within_m
 
-    def edge_out_behind_obstacles(self, min_gap_m: float, after_calls: int = 1, at_gap_m: float = 0.5) -> tuple[str, ...]:
+    def edge_out_behind_obstacles(self, min_gap_m: float, after_calls: int = 1,
+                                  at_gap_m: float = 0.5) -> tuple[str, ...]:
         """Drivers found standing at their minGap (within ``at_gap_m`` of it) behind a stopped obstacle in
         ``after_calls`` calls in a row get ``min_gap_m`` as their minGap, and their own back once the obstacle is
         no longer their leader. SUMO's sublane model counts a car that stands at its minGap behind a stopped one
