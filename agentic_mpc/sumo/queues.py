@@ -118,29 +118,78 @@ def drives_up_to_a_queue(queues: tuple[Queue, ...], vehicle: VehicleObservation)
                for q in queues)
 
 
-class Detour:
-    """The lane J1 follows while the ego passes a queue that blocks the lane J1 tracks.
+PULL_OUT_ASIDE_M = 0.25
+"""Standing behind a lone stopped obstacle, the ego has started to pull out to the side its centre is this far to."""
 
-    It starts once the ego's centre is in a lane beside the tracked one and a queue with cars in it (not a lone
-    stopped car: J2 takes the ego round that, as in the paper) stands ahead in the tracked lane within
-    ``within_m``; it lasts, for that queue's obstacle, until the obstacle is behind the ego or the ego leaves
-    that lane. Pulled back towards the queue instead, the ego stood wedged beside a car of it that stood to
-    its side for 125 s (docs/traffic.md)."""
+
+@dataclass(frozen=True, slots=True)
+class _Passing:
+    obstacle_id: str
+    followed_lane: int
+    tracked_lane: int
+    from_queue: bool
+    """Started standing in the tracked lane itself (it lasts there too, not only in the lane followed)."""
+
+
+class Detour:
+    """The lane J1 follows while the ego passes a blockage of the lane J1 tracks.
+
+    It starts in two ways, and lasts, for that blockage's obstacle, until the obstacle is behind the ego or the
+    ego leaves the lanes it started in:
+    - the ego's centre is in a lane beside the tracked one and a queue with cars in it (not a lone stopped car:
+      J2 takes the ego round that, as in the paper) stands ahead in the tracked lane within ``within_m``.
+      Pulled back towards the queue instead, the ego stood wedged beside a car of it that stood to its side for
+      125 s (docs/traffic.md);
+    - the ego stands in the tracked lane behind a lone stopped obstacle, as a queued car would (its front
+      within ``QUEUE_LINK_M`` of the obstacle's rear, slower than ``QUEUE_STANDING_MPS``), already partly aside:
+      J1 follows the lane on that side. In line, J0's queue room charges every plan that ends closer, and J1 on
+      the blocked lane pulls back in line: a pull-out there is a narrow valley of the cost that 256 samples
+      missed, and the ego stood 8 m behind a lone stopped car with the lane beside it free for 23 s to the end,
+      the cars behind in every lane waiting for it (docs/traffic.md). Behind a queue's cars, pulling out is the
+      zipper's merge, which J0's gap acceptance decides (started there too, the ego cut into the next lane's
+      traffic at 2 m/s)."""
 
     def __init__(self) -> None:
-        self._passing: tuple[str, int, int] | None = None  # (obstacle id, lane followed, lane tracked)
+        self._passing: _Passing | None = None
 
     def lane(self, observation: Observation, queues: tuple[Queue, ...], tracked_lane: int | None,
-             within_m: float) -> int | None:
-        """The lane to follow instead of ``tracked_lane``, or None to follow it."""
+             within_m: float, lane_centres_m: tuple[float, ...]) -> int | None:
+        """The lane to follow instead of ``tracked_lane``, or None to follow it. ``lane_centres_m``: each lane's
+        centre line, from the road's, positive to the left."""
         ego = observation.ego
-        if tracked_lane is None or not ego.lane_role or abs(ego.lane_index - tracked_lane) != 1:
+        if tracked_lane is None or not ego.lane_role:
             self._passing = None
             return None
-        if self._passing is not None and self._passing[1:] == (ego.lane_index, tracked_lane):
-            obstacle = next((o for o in observation.obstacles if o.id == self._passing[0]), None)
+        passing = self._passing
+        if passing is not None and passing.tracked_lane == tracked_lane and (
+                ego.lane_index == passing.followed_lane or passing.from_queue and ego.lane_index == tracked_lane):
+            obstacle = next((o for o in observation.obstacles if o.id == passing.obstacle_id), None)
             if obstacle is not None and obstacle.relation != "behind":
-                return ego.lane_index
-        self._passing = next(((q.obstacle_id, ego.lane_index, tracked_lane) for q in queues
-                              if q.lane_index == tracked_lane and q.members and q.tail_gap_m <= within_m), None)
-        return ego.lane_index if self._passing is not None else None
+                return passing.followed_lane
+        self._passing = self._beside(ego.lane_index, queues, tracked_lane, within_m) or self._in_queue(
+            observation, queues, tracked_lane, lane_centres_m)
+        return self._passing.followed_lane if self._passing is not None else None
+
+    @staticmethod
+    def _beside(ego_lane: int, queues: tuple[Queue, ...], tracked_lane: int, within_m: float) -> _Passing | None:
+        if abs(ego_lane - tracked_lane) != 1:
+            return None
+        return next((_Passing(q.obstacle_id, ego_lane, tracked_lane, False) for q in queues
+                     if q.lane_index == tracked_lane and q.members and q.tail_gap_m <= within_m), None)
+
+    @staticmethod
+    def _in_queue(observation: Observation, queues: tuple[Queue, ...], tracked_lane: int,
+                  lane_centres_m: tuple[float, ...]) -> _Passing | None:
+        ego = observation.ego
+        if ego.lane_index != tracked_lane or ego.speed_mps >= QUEUE_STANDING_MPS:
+            return None
+        for queue in queues:
+            if queue.lane_index != tracked_lane or queue.members or queue.tail_gap_m > QUEUE_LINK_M:
+                continue  # behind a queue's cars it is the zipper's merge: J0's gap acceptance, from the lane beside
+            aside = ego.lateral_offset_m - queue.tail.lateral_offset_m  # from the car itself, as J0's room
+            if abs(aside) < PULL_OUT_ASIDE_M:
+                continue
+            for lane in (tracked_lane - 1, tracked_lane + 1):  # the one on that side, if the road has it
+                if 0 <= lane < len(lane_centres_m) and (lane_centres_m[lane] - lane_centres_m[tracked_lane]) * aside > 0:
+                    return _Passing(queue.obstacle_id, lane, tracked_lane, True)
+        return None

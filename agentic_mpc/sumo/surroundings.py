@@ -100,6 +100,7 @@ class SurroundingsBuilder:
             half = 0.5 * road.lane_widths_m[index]
             bounds.append((centre + half, centre - half))
         self._lane_bounds = tuple(bounds)
+        self._lane_centres = tuple(0.5 * (left + right) for left, right in bounds)
         self._covers: dict[tuple[float, float, float], DiscCover] = {}
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
         self._queues_of: Observation | None = None
@@ -352,9 +353,10 @@ class SurroundingsBuilder:
         (used by ``edges="corridor"``)."""
         shift, within = 0.0, self.config.passing_lanes_within_m
         if self.config.detour_beside_queues and within is not None:
-            detour = self._detour.lane(observation, self.queues(observation), target_lane, within)
+            detour = self._detour.lane(observation, self.queues(observation), target_lane, within,
+                                       self._lane_centres)
             if detour is not None:  # J1's reference, the corridor, the leaders: of the lane the ego passes in
-                shift = sum(self._lane_bounds[detour]) / 2 - sum(self._lane_bounds[target_lane]) / 2
+                shift = self._lane_centres[detour] - self._lane_centres[target_lane]
                 target_lane = detour
         left = right = None
         mode = self.config.edges

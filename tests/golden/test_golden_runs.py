@@ -1,5 +1,6 @@
-"""Behaviour pinned across refactoring: every shipped scenario x variant at seeds 0 and 1 gives the same
-summary, trajectory and events, to the last written digit (wall-clock columns aside)."""
+"""Behaviour pinned across refactoring: every shipped scenario x variant at seeds 0 and 1 (0 alone for the
+jurisdiction families, ``cases.ONE_SEED``) gives the same summary, trajectory and events, to the last written
+digit (wall-clock columns aside)."""
 
 from __future__ import annotations
 

@@ -226,6 +226,55 @@ def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_i
         assert builder_of(world).build(world.observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
 
 
+def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_on_that_side():
+    """The ego stands in the centre lane J1 tracks, 8 m behind a lone stopped car and 0.8 m right of its lane's
+    centre: J1 follows the right lane (3.5 m right) and keeps it while the ego crosses into it, until the car is
+    behind; 0.8 m left: the left lane. Straight behind, moving, farther back than a queued car stands, behind a
+    queue's cars, or the lane on that side missing (the road's edge): J1 stays on the tracked lane."""
+    from agentic_mpc.sumo.config import StaticObstacle
+    from agentic_mpc.sumo.queues import QUEUE_LINK_M
+
+    config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=230.0),),
+                          ego=EgoStart(lane="center", pos_m=217.0, speed_mps=0.0),
+                          surroundings=SurroundingsConfig(edges="corridor"))
+    with SumoWorld(config) as world:
+        observation = world.observation
+        ego, (queue,) = observation.ego, builder_of(world).queues(observation)
+        assert queue.members == () and 0.0 < queue.tail_gap_m <= QUEUE_LINK_M and ego.lane_index == 1
+
+        def shift(builder: SurroundingsBuilder, target_lane: int = 1, **ego_update: object) -> float:
+            seen = dataclasses.replace(observation, ego=dataclasses.replace(ego, **ego_update))
+            return builder.build(seen, world.ego_state, target_lane=target_lane).reference_shift_m
+
+        builder = builder_of(world)
+        assert shift(builder, lateral_offset_m=-0.8) == pytest.approx(-3.5, abs=0.01)
+        # It lasts while the ego crosses into the right lane, and ends once the stopped car is behind it.
+        assert shift(builder, lateral_offset_m=1.5, lane_index=0, speed_mps=3.0) == pytest.approx(-3.5, abs=0.01)
+        past = dataclasses.replace(observation, obstacles=tuple(dataclasses.replace(o, relation="behind")
+                                                                for o in observation.obstacles))
+        assert builder.build(past, world.ego_state, target_lane=1).reference_shift_m == 0.0
+        assert shift(builder_of(world), lateral_offset_m=0.8) == pytest.approx(3.5, abs=0.01)
+        assert shift(builder_of(world), lateral_offset_m=-0.1) == 0.0  # straight behind: J2's, as in the paper
+        assert shift(builder_of(world), lateral_offset_m=-0.8, speed_mps=3.0) == 0.0
+        far = dataclasses.replace(observation, obstacles=tuple(dataclasses.replace(o, gap_m=QUEUE_LINK_M + 1.0)
+                                                               for o in observation.obstacles))
+        far = dataclasses.replace(far, ego=dataclasses.replace(ego, lateral_offset_m=-0.8))
+        assert builder_of(world).build(far, world.ego_state, target_lane=1).reference_shift_m == 0.0
+        # Behind a queue's cars it is the zipper's merge (J0's gap acceptance), not a detour.
+        from agentic_mpc.sumo.queues import Detour
+
+        aside = dataclasses.replace(observation, ego=dataclasses.replace(ego, lateral_offset_m=-0.8))
+        centres = (-3.5, 0.0, 3.5)
+        assert Detour().lane(aside, (queue,), 1, 80.0, centres) == 0
+        assert Detour().lane(aside, (dataclasses.replace(queue, members=("queued",)),), 1, 80.0, centres) is None
+    edge = config.replace(obstacles=(StaticObstacle(id="stopped", lane="right", pos_m=230.0),),
+                          ego=EgoStart(lane="right", pos_m=217.0, speed_mps=0.0))
+    with SumoWorld(edge) as world:
+        observation = world.observation
+        seen = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lateral_offset_m=-0.8))
+        assert builder_of(world).build(seen, world.ego_state, target_lane=0).reference_shift_m == 0.0
+
+
 def test_coming_up_to_a_queue_j1_slows_to_a_speed_it_can_stop_from_with_room():
     """A queue (a stopped car, two behind it) ahead in the ego's lane: J1's reference speed is capped at the
     speed from which braking at approach_decel_mps2 stops the ego the model's pull-out room behind the last car
