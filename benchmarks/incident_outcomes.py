@@ -2,7 +2,10 @@
 of runs that passed every stopped car they met within 60 s of reaching its queue, the longest ``stuck_s``,
 collisions with the ego at fault, and, where the agent resumed after a stop, whether the ego got back to v_ref.
 
-    python benchmarks/incident_outcomes.py out/batch [more batch dirs]
+    python benchmarks/incident_outcomes.py out/batch [more batch dirs] [--misses]
+
+``--misses`` also lists each run that misses one of the issue's bars (not past within 60 s, stuck over 10 s, a
+contact at fault, not back at v_ref), to read one by one.
 
 "Reaching the queue" of a stopped car: the first time the ego is slower than 2 m/s within 80 m behind it (a car
 passed without slowing reached nothing: 0 s). A run that ends less than 60 s after reaching a queue it has not
@@ -21,6 +24,7 @@ import pandas as pd
 QUEUE_SPEED_MPS = 2.0
 QUEUE_WINDOW_M = 80.0
 PASS_WITHIN_S = 60.0
+STUCK_BAR_S = 10.0
 
 
 def run_outcome(run_dir: Path) -> dict:
@@ -58,7 +62,7 @@ def run_outcome(run_dir: Path) -> dict:
     return row
 
 
-def main(batch_dirs: list[str]) -> None:
+def main(batch_dirs: list[str], misses: bool = False) -> None:
     rows = [run_outcome(summary.parent) for d in batch_dirs for summary in Path(d).glob("runs/*/*/seed-*/summary.csv")]
     table = pd.DataFrame(rows)
     aggregations = {"runs": ("seed", "count"), "at_fault": ("collisions_ego_at_fault", "sum"),
@@ -74,9 +78,20 @@ def main(batch_dirs: list[str]) -> None:
         aggregations["back_at_v_ref"] = ("resumed_to_v_ref", "mean")
         aggregations["resume_s_median"] = ("resume_to_v_ref_s", "median")
     print(table.groupby(["scenario", "variant"]).agg(**aggregations).round(3).to_string())
+    if misses:
+        missed = table["stuck_s"].gt(STUCK_BAR_S) | table["collisions_ego_at_fault"].gt(0)
+        if "passed_all_within_60s" in table:
+            missed |= table["passed_all_within_60s"].eq(0.0)
+        if "resumed_to_v_ref" in table:
+            missed |= table["resumed_to_v_ref"].eq(0.0)
+        columns = [c for c in ("variant", "seed", "worst_pass_s", "stuck_s", "collisions_ego_at_fault",
+                               "resume_to_v_ref_s", "ambulance_delay_s") if c in table]
+        print(f"\n{int(missed.sum())} runs miss a bar:")
+        print(table[missed].sort_values(["variant", "seed"])[columns].round(2).to_string(index=False))
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 2:
-        sys.exit("usage: python benchmarks/incident_outcomes.py BATCH_DIR [BATCH_DIR ...]")
-    main(sys.argv[1:])
+    arguments = [a for a in sys.argv[1:] if a != "--misses"]
+    if not arguments:
+        sys.exit("usage: python benchmarks/incident_outcomes.py BATCH_DIR [BATCH_DIR ...] [--misses]")
+    main(arguments, misses="--misses" in sys.argv[1:])

@@ -59,9 +59,9 @@ class SurroundingsConfig(FrozenConfig):
     detour_beside_queues: bool = Field(
         True,
         description="once the ego's centre is in the lane beside a queue that blocks the lane J1 tracks, or it stands "
-        "in that lane behind a lone stopped obstacle partly aside, J1 follows the lane beside (on that side) until the ego is past the "
-        "queue's obstacle (pulled back towards the queue, the ego stood wedged beside it, or in line behind it: "
-        "docs/traffic.md)",
+        "in that lane behind a lone stopped obstacle partly aside, J1 follows the lane beside (on that side) until "
+        "the ego is past the obstacle (pulled back towards the queue, the ego stood wedged beside it, or in line "
+        "behind it: docs/traffic.md)",
     )
     approach_decel_mps2: float | None = Field(
         None,

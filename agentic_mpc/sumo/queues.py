@@ -127,8 +127,8 @@ class _Passing:
     obstacle_id: str
     followed_lane: int
     tracked_lane: int
-    from_queue: bool
-    """Started standing in the tracked lane itself (it lasts there too, not only in the lane followed)."""
+    started_in_line: bool
+    """Started standing in the tracked lane behind the obstacle (it lasts there too, not only in the lane followed)."""
 
 
 class Detour:
@@ -162,7 +162,7 @@ class Detour:
             return None
         passing = self._passing
         if passing is not None and passing.tracked_lane == tracked_lane and (
-                ego.lane_index == passing.followed_lane or passing.from_queue and ego.lane_index == tracked_lane):
+                ego.lane_index == passing.followed_lane or passing.started_in_line and ego.lane_index == tracked_lane):
             obstacle = next((o for o in observation.obstacles if o.id == passing.obstacle_id), None)
             if obstacle is not None and obstacle.relation != "behind":
                 return passing.followed_lane
@@ -189,7 +189,8 @@ class Detour:
             aside = ego.lateral_offset_m - queue.tail.lateral_offset_m  # from the car itself, as J0's room
             if abs(aside) < PULL_OUT_ASIDE_M:
                 continue
+            here = lane_centres_m[tracked_lane]
             for lane in (tracked_lane - 1, tracked_lane + 1):  # the one on that side, if the road has it
-                if 0 <= lane < len(lane_centres_m) and (lane_centres_m[lane] - lane_centres_m[tracked_lane]) * aside > 0:
+                if 0 <= lane < len(lane_centres_m) and (lane_centres_m[lane] - here) * aside > 0.0:
                     return _Passing(queue.obstacle_id, lane, tracked_lane, True)
         return None

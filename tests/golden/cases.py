@@ -95,19 +95,19 @@ def run_all(workdir: Path) -> Path:
     """Run every golden case with the batch (a process per run); returns the batch's ``runs`` directory."""
     from agentic_mpc.batch import BatchSpec, run_batch
 
-    files = shortened_scenarios(workdir)
-    runs = workdir / "out" / "runs"
-    for seeds, out in ((SEEDS, workdir / "out"), (SEEDS[:1], workdir / "one_seed")):
-        chosen = tuple(f for f in files if (f.stem in ONE_SEED) == (out.name == "one_seed"))
+    files = shortened_scenarios(workdir)  # named after their scenarios
+    batches = ((tuple(f for f in files if f.stem not in ONE_SEED), SEEDS, workdir / "out"),
+               (tuple(f for f in files if f.stem in ONE_SEED), SEEDS[:1], workdir / "one_seed"))
+    for chosen, seeds, out in batches:
         spec = BatchSpec(files=chosen, trials=len(seeds), first_seed=seeds[0], variants=None, workers=2,
                          out_dir=out, executor="process", scheduler=None)
         result = run_batch(spec, progress=False)
         failed = [row for row in result.rows if row["status"] != "ok"]
         if failed:
             raise RuntimeError(f"golden runs failed: {failed}")
-        if out.name == "one_seed":
-            for scenario in (out / "runs").iterdir():
-                shutil.move(scenario, runs / scenario.name)
+    runs = workdir / "out" / "runs"
+    for scenario in (workdir / "one_seed" / "runs").iterdir():  # one directory of cases, as stored
+        shutil.move(scenario, runs / scenario.name)
     return runs
 
 
