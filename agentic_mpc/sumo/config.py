@@ -58,8 +58,9 @@ class SurroundingsConfig(FrozenConfig):
     )
     detour_beside_queues: bool = Field(
         True,
-        description="once the ego's centre is in the lane beside a queue that blocks the lane J1 tracks, or it stands "
-        "in that lane behind a lone stopped obstacle partly aside, J1 follows the lane beside (on that side) until "
+        description="once the ego's centre is in the lane beside a queue that blocks the lane J1 tracks (or beside a "
+        "lone stopped obstacle 20 m ahead or more), or it stands in that lane behind a lone stopped obstacle partly "
+        "aside, J1 follows the lane beside (on that side) until "
         "the ego is past the obstacle (pulled back towards the queue, the ego stood wedged beside it, or in line "
         "behind it: docs/traffic.md)",
     )
@@ -222,6 +223,12 @@ class SumoConfig(FrozenConfig):
         True,
         description="SUMO's drivers told of the ego's lane changes (its plan): followers in the lane it enters asked"
         " to open a gap, braking at most surroundings.follower_yield_mps2 (agentic_mpc.sumo.intention)",
+    )
+    show_ego_outline: bool = Field(
+        True,
+        description="under the sublane model, the part of the ego that sticks into the next lane is a vehicle of"
+        " that size in SUMO, so that its drivers there react to it (agentic_mpc.sumo.outline); False: SUMO sees the"
+        " ego only in the lane its centre is in",
     )
     sumo_log_file: Path | None = None
     quiet: bool = Field(True, description="suppress SUMO's warnings on stderr")

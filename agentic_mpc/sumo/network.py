@@ -15,6 +15,7 @@ SUMO lane position to arc length on our path with the lane's geometry factor, as
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 import xml.sax
 from dataclasses import dataclass
@@ -209,6 +210,18 @@ class Road:
         return chain
 
     # --- lanes by name -------------------------------------------------------------------------------
+    @functools.cached_property
+    def lane_bounds_m(self) -> tuple[tuple[float, float], ...]:
+        """Each lane's (left, right) line, lateral from the road's centre line (positive to the left), by lane
+        index; measured mid-road (lanes run parallel to the centre line)."""
+        middle = self.reference.points_at([0.5 * self.reference.length_m])[0]
+        bounds = []
+        for index, path in enumerate(self.lane_paths):
+            x, y = path.points_at([path.project(*middle)])[0]
+            centre, half = float(self.lateral_from_reference(x, y)[0]), 0.5 * self.lane_widths_m[index]
+            bounds.append((centre + half, centre - half))
+        return tuple(bounds)
+
     def lane_roles(self) -> dict[str, int]:
         """"left", "right" and (for an odd count) "center" mapped to SUMO lane indices."""
         return dict(self._roles)

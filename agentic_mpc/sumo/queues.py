@@ -118,6 +118,11 @@ def drives_up_to_a_queue(queues: tuple[Queue, ...], vehicle: VehicleObservation)
                for q in queues)
 
 
+BESIDE_LONE_OBSTACLE_FROM_M = 20.0
+"""In the lane beside a lone stopped obstacle at least this far ahead (from the ego's front to its rear), the ego
+passes it in that lane. J2's swerve round a lone obstacle, as in the paper, takes the ego's centre over the lane
+line 6-9 m before it (the goldens); further back the ego is in that lane for its own reasons (after a yield)."""
+
 PULL_OUT_ASIDE_M = 0.25
 """Standing behind a lone stopped obstacle, the ego has started to pull out to the side its centre is this far to."""
 
@@ -136,10 +141,11 @@ class Detour:
 
     It starts in two ways, and lasts, for that blockage's obstacle, until the obstacle is behind the ego or the
     ego leaves the lanes it started in:
-    - the ego's centre is in a lane beside the tracked one and a queue with cars in it (not a lone stopped car:
-      J2 takes the ego round that, as in the paper) stands ahead in the tracked lane within ``within_m``.
-      Pulled back towards the queue instead, the ego stood wedged beside a car of it that stood to its side for
-      125 s (docs/traffic.md);
+    - the ego's centre is in a lane beside the tracked one and a queue with cars in it stands ahead in the
+      tracked lane within ``within_m``, or a lone stopped car at least ``BESIDE_LONE_OBSTACLE_FROM_M`` ahead
+      (nearer, J2 takes the ego round it, as in the paper; further back, pulled into line behind it the ego would
+      only have to pull out again, as after a yield to the edge lane). Pulled back towards a queue instead, the
+      ego stood wedged beside a car of it that stood to its side for 125 s (docs/traffic.md);
     - the ego stands in the tracked lane behind a lone stopped obstacle, as a queued car would (its front
       within ``QUEUE_LINK_M`` of the obstacle's rear, slower than ``QUEUE_STANDING_MPS``), already partly aside:
       J1 follows the lane on that side. In line, J0's queue room charges every plan that ends closer, and J1 on
@@ -175,7 +181,8 @@ class Detour:
         if abs(ego_lane - tracked_lane) != 1:
             return None
         return next((_Passing(q.obstacle_id, ego_lane, tracked_lane, False) for q in queues
-                     if q.lane_index == tracked_lane and q.members and q.tail_gap_m <= within_m), None)
+                     if q.lane_index == tracked_lane and q.tail_gap_m <= within_m
+                     and (q.members or q.tail_gap_m >= BESIDE_LONE_OBSTACLE_FROM_M)), None)
 
     @staticmethod
     def _in_queue(observation: Observation, queues: tuple[Queue, ...], tracked_lane: int,

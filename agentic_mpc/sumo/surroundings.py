@@ -91,15 +91,7 @@ class SurroundingsBuilder:
         self.config = config
         self._steps = dt_s * np.arange(1, horizon + 1)  # k = 1..H: the rollouts' states
         self._horizon_s = horizon * dt_s
-        # Lateral bounds (left, right) of each lane from the road's centre line (lanes run parallel to it).
-        middle = 0.5 * road.reference.length_m
-        bounds = []
-        for index, path in enumerate(road.lane_paths):
-            x, y = path.points_at([path.project(*road.reference.points_at([middle])[0])])[0]
-            centre = float(road.lateral_from_reference(x, y)[0])
-            half = 0.5 * road.lane_widths_m[index]
-            bounds.append((centre + half, centre - half))
-        self._lane_bounds = tuple(bounds)
+        bounds = self._lane_bounds = road.lane_bounds_m
         self._lane_centres = tuple(0.5 * (left + right) for left, right in bounds)
         self._covers: dict[tuple[float, float, float], DiscCover] = {}
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
@@ -308,13 +300,16 @@ class SurroundingsBuilder:
         points, tangents = points_at(table, np.concatenate(arcs))
         return tuple(
             Leader(points[2 * n * h:(2 * n + 1) * h], np.ascontiguousarray(tangents[(2 * n + 1) * h:(2 * n + 2) * h]),
-                   self._queue_lateral(observation, vehicle, queued))
+                   self._queue_lateral(observation, vehicle, queued) if vehicle.lane_index == path_lane else None)
             for n, vehicle in enumerate(chosen)
         )
 
     def _queue_lateral(self, observation: Observation, vehicle: VehicleObservation, queued: set[str]) -> float | None:
         """The leader's cover radius if it drives up to a queue's tail in its lane, else None: J0 then keeps room
-        to pull out behind it, rather than follow it into a queue that may never move."""
+        to pull out behind it, rather than follow it into a queue that may never move. Only for a leader in the
+        path's lane: one beside that reaches into it is not the car the ego would queue behind (a car creeping
+        along the queue's lane beside the ego, aligned to its edge, held the ego standing 10.8 m back in a free
+        lane for 15 s: docs/traffic.md)."""
         if vehicle.id in queued or not drives_up_to_a_queue(self.queues(observation), vehicle):
             return None
         return self._cover(vehicle).radius_m

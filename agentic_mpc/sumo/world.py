@@ -33,6 +33,7 @@ from agentic_mpc.sumo.insertion import insert_at_free_gap, speed_behind_leader
 from agentic_mpc.sumo.intention import IntentionReader
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
+from agentic_mpc.sumo.outline import EgoOutline
 from agentic_mpc.sumo.route_files import RouteFileError, read_route_types, rescue_lanes_active, type_attribute
 from agentic_mpc.sumo.start import open_bridge
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder
@@ -99,13 +100,14 @@ class SumoWorld:
             self._obstacle_states: dict[str, VehicleState] = {}
             self._lane_of_path: dict[int, tuple[Any, int | None]] = {}
             self._surroundings: dict[int, SurroundingsBuilder] = {}
-            self._observer = ObservationBuilder(
-                self.road, config.ego_id, self._bridge.info, self.obstacle_ids, self._obstacle_state
-            )
+            self._observer = ObservationBuilder(self.road, config.ego_id, self._bridge.info, self.obstacle_ids,
+                                                self._obstacle_state)
             self._observation = self._observe()
-            self._intention = IntentionReader(
-                self.road, self.ego_width_m, max_decel_mps2=config.surroundings.follower_yield_mps2
-            ) if config.announce_lane_changes else None
+            yield_mps2 = config.surroundings.follower_yield_mps2
+            self._intention = IntentionReader(self.road, self.ego_width_m, max_decel_mps2=yield_mps2
+                                              ) if config.announce_lane_changes else None
+            self._outline = EgoOutline(self.road, info, self._bridge, config.ego_id, self._route_from(
+                self._ego_start.edge_id)) if config.show_ego_outline and (config.sublane or self.rescue_lanes) else None
         except SumoError as error:
             self.close()
             raise WorldError(f"SUMO world set-up failed: {error}") from error
@@ -132,7 +134,7 @@ class SumoWorld:
     def _initial_state(self, start: _Resolved, speed_mps: float | None = None) -> np.ndarray:
         """Centre pose of the ego's start (front at pos_m, lateral_offset_m aside), at speed_mps or as configured."""
         x_front, y_front, phi = self.road.pose_on_lane(f"{start.edge_id}_{start.lane_index}", start.pos_m)
-        ego_length = self._type_length(self.config.ego_type_id)
+        ego_length = self._type_attribute(self.config.ego_type_id, "length", 5.0)
         offset = self.config.ego.lateral_offset_m
         x = x_front - 0.5 * ego_length * math.cos(phi) - offset * math.sin(phi)
         y = y_front - 0.5 * ego_length * math.sin(phi) + offset * math.cos(phi)
@@ -143,11 +145,8 @@ class SumoWorld:
             )
         return np.array([x, y, phi, self.config.ego.speed_mps if speed_mps is None else speed_mps])
 
-    def _type_length(self, type_id: str) -> float:
-        """A vType's length from the route files (before SUMO runs; SUMO's default is 5 m)."""
-        return self._type_attribute(type_id, "length", 5.0)
-
     def _type_attribute(self, type_id: str, name: str, default: float) -> float:
+        """A vType's attribute from the route files (before SUMO runs), else SUMO's ``default``."""
         try:
             return type_attribute(self.config.route_files, type_id, name, default)
         except RouteFileError as error:
@@ -222,7 +221,8 @@ class SumoWorld:
                 bridge, c.ego_id, self._route_from(start.edge_id), c.ego_type_id, lane_index=start.lane_index,
                 lane_id=f"{start.edge_id}_{start.lane_index}", requested_pos_m=start.pos_m,
                 lane_length_m=self.network.edge(start.edge_id).getLane(start.lane_index).getLength(),
-                length_m=self._type_length(c.ego_type_id), min_gap_m=self._type_attribute(c.ego_type_id, "minGap", 2.5),
+                length_m=self._type_attribute(c.ego_type_id, "length", 5.0),
+                min_gap_m=self._type_attribute(c.ego_type_id, "minGap", 2.5),
                 speed_mps=speed_mps, fits=lambda p: self._fits(start, p), wait_steps=round(0.5 / self.dt_s),
             )
             self._state = self._initial_state(_Resolved(start.edge_id, start.lane_index, pos), speed_mps)
@@ -252,8 +252,7 @@ class SumoWorld:
 
     # --- the world interface -------------------------------------------------------------------------
     @property
-    def bridge(self) -> SumoBridge:
-        """The SUMO bridge (for tests and scripts that need more than the observation)."""
+    def bridge(self) -> SumoBridge:  # for tests and scripts that need more than the observation
         if self._bridge is None:
             raise WorldError("the SUMO world is closed")
         return self._bridge
@@ -279,8 +278,7 @@ class SumoWorld:
         """The road's lanes by role and its speed limit (the lowest on the road)."""
         lanes = {role: self.road.lane_paths[index] for role, index in self.road.lane_roles().items()}
         limit = min(self.network.edge(edge_id).getSpeed() for edge_id in self.road.edge_ids)
-        first = self.network.edge(self.road.edge_ids[0]).getLanes()
-        # an emergency lane: one SUMO's cars may not drive on (the LaMPilot scenes' hard shoulder)
+        first = self.network.edge(self.road.edge_ids[0]).getLanes()  # a lane cars may not use: a hard shoulder
         shoulder = next((i for i, lane in enumerate(first) if not lane.allows("passenger")), None)
         return RoadLanes(lanes, float(limit), self.road.lefthand, tuple(self.road.lane_paths),
                          tuple(self.road.left_to_right), shoulder)
@@ -333,6 +331,8 @@ class SumoWorld:
             self._bridge.move_external(
                 self.config.ego_id, x, y, phi, speed_mps=speed, accel_mps2=(speed - float(state[3])) / self.dt_s,
             )
+            if self._outline is not None:
+                self._outline.update(x, y, phi, speed, self._observation)
             self._step_sumo()
             self._observation = self._observe()
         except Exception as error:

@@ -196,6 +196,32 @@ def test_a_stopped_car_and_the_queue_behind_it_block_the_lane_together():
         assert moved.tail.lateral_offset_m == pytest.approx(tail.lateral_offset_m - 1.2, abs=1e-9)
 
 
+def test_a_leader_driving_up_to_a_queue_gets_room_behind_it_only_in_the_paths_lane():
+    """A car creeps up the centre lane to a queue there: as the leader of a path in the centre lane, J0 keeps the
+    room to pull out behind it. Seen from the right lane (where the ego passes), the same car aligned to its lane's
+    right edge reaches into the path and is a leader there too, but the ego will not queue behind it: d_0 only."""
+    from agentic_mpc.sumo.config import StaticObstacle
+
+    obstacle = StaticObstacle(id="stopped", lane="center", pos_m=280.0)
+    vehicles = (VehicleSpawn(id="queued1", lane="center", pos_m=273.0, lane_changes=False),
+                VehicleSpawn(id="queued2", lane="center", pos_m=266.0, lane_changes=False),
+                VehicleSpawn(id="creeper", lane="center", pos_m=240.0, speed_mps=2.0, lane_changes=False))
+    config = curvy_config(obstacles=(obstacle,), vehicles=vehicles, surroundings=SurroundingsConfig(edges="corridor"),
+                          ego=EgoStart(lane="right", pos_m=232.0, speed_mps=2.0))
+    with SumoWorld(config) as world:
+        builder, observation = builder_of(world), world.observation
+        creeper = observation.vehicle("creeper")
+        (leader,) = builder.leaders(observation, target_lane=1)
+        assert leader.queue_lateral_m == pytest.approx(builder._cover(creeper).radius_m)
+        heading = creeper.heading_rad
+        edge = dataclasses.replace(creeper, lateral_offset_m=creeper.lateral_offset_m - 1.0,
+                                   x_m=creeper.x_m + 1.0 * math.sin(heading), y_m=creeper.y_m - 1.0 * math.cos(heading))
+        aligned = dataclasses.replace(observation, traffic=tuple(edge if v.id == "creeper" else v
+                                                                 for v in observation.traffic))
+        (beside,) = builder.leaders(aligned, target_lane=0)
+        assert beside.queue_lateral_m is None
+
+
 def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_in():
     """The ego in the right lane, a queue (a stopped car and two behind it) ahead in the centre lane that J1
     tracks: J1's reference moves to the right lane's centre (3.5 m right), until the stopped car is behind the
@@ -224,6 +250,30 @@ def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_i
         assert off.build(observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
     with SumoWorld(beside.replace(ego=EgoStart(lane="center", pos_m=220.0, speed_mps=15.0))) as world:
         assert builder_of(world).build(world.observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
+
+
+def test_in_the_lane_beside_a_lone_stopped_car_well_ahead_j1_follows_that_lane():
+    """The ego in the right lane (as after a yield), a lone stopped car 55 m ahead in the centre lane J1 tracks:
+    J1 follows the right lane until the car is behind. Within 20 m of it, where J2's swerve round it takes the
+    ego's centre over the line (as in the paper), J1 stays on the tracked lane."""
+    from agentic_mpc.sumo.config import StaticObstacle
+    from agentic_mpc.sumo.queues import BESIDE_LONE_OBSTACLE_FROM_M
+
+    config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=280.0),),
+                          ego=EgoStart(lane="right", pos_m=220.0, speed_mps=2.0),
+                          surroundings=SurroundingsConfig(edges="corridor"))
+    with SumoWorld(config) as world:
+        builder, observation = builder_of(world), world.observation
+        (queue,) = builder.queues(observation)
+        assert queue.members == () and queue.tail_gap_m == pytest.approx(55.0, abs=1.0)
+        assert builder.build(observation, world.ego_state, target_lane=1).reference_shift_m == pytest.approx(
+            -3.5, abs=0.01)
+        past = dataclasses.replace(observation, obstacles=tuple(dataclasses.replace(o, relation="behind")
+                                                                for o in observation.obstacles))
+        assert builder.build(past, world.ego_state, target_lane=1).reference_shift_m == 0.0
+        near = dataclasses.replace(observation, obstacles=tuple(
+            dataclasses.replace(o, gap_m=BESIDE_LONE_OBSTACLE_FROM_M - 1.0) for o in observation.obstacles))
+        assert builder_of(world).build(near, world.ego_state, target_lane=1).reference_shift_m == 0.0
 
 
 def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_on_that_side():

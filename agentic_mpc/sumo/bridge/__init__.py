@@ -110,6 +110,7 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading):
         self._waiting_external: dict[str, tuple[int, float]] = {}
         self._speed_overrides: dict[str, float] = {}
         self._mirror_shift: dict[str, tuple[float, float]] = {}  # see move_external
+        self._outlines: dict[str, tuple[float, float]] = {}  # shown outline id -> (length, width) (show_outline)
         self.keep_route = keep_route
         self.collisions: tuple[CollisionRecord, ...] = ()
         """Collisions SUMO reported in the last step."""
@@ -202,6 +203,7 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading):
                     c.type, c.lane, c.pos,
                 )
                 for c in collisions
+                if c.collider not in self._outlines and c.victim not in self._outlines
             ) if collisions else ()
             self.departed = tuple(libsumo.simulation.getDepartedIDList())
             self.arrived = tuple(libsumo.simulation.getArrivedIDList())
@@ -210,5 +212,7 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading):
                     libsumo.vehicle.subscribe(vehicle_id, _STATE_VARIABLES)
                     self._emergency.add(vehicle_id)
             self._emergency.difference_update(self.arrived)
+            for vehicle_id in self.arrived:  # an outline moved past its route's end: shown anew where needed
+                self._outlines.pop(vehicle_id, None)
         except _LIBSUMO_ERRORS as error:
             raise self._fail("stepping the simulation", error) from error

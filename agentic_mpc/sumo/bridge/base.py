@@ -35,6 +35,7 @@ class BridgeState:
     _waiting_external: dict[str, tuple[int, float]]
     _speed_overrides: dict[str, float]
     _mirror_shift: dict[str, tuple[float, float]]  # see move_external
+    _outlines: dict[str, tuple[float, float]]  # shown outline id -> its (length, width) in SUMO (show_outline)
     collisions: tuple[CollisionRecord, ...]
     departed: tuple[str, ...]
     arrived: tuple[str, ...]

@@ -52,13 +52,14 @@ class DriverCommands(BridgeState):
         back; SUMO's bluelight device keeps both from them while it is on their edge (docs/traffic.md). So do
         drivers standing with a stopped obstacle ahead within ``blocked_within_m`` while the emergency vehicle
         stands too: it cannot pass them, and with both waiting nobody moved (``incident_in_traffic`` seed 901,
-        docs/traffic.md). External and stopped vehicles are left alone. Returns the ids released."""
+        docs/traffic.md). External and stopped vehicles (and outlines) are left alone. Returns the ids released."""
         self._require_running()
         released = []
         try:
             for vehicle_id in libsumo.vehicle.getIDList():
                 emergency_id = libsumo.vehicle.getParameter(vehicle_id, "rescueLane")
-                if not emergency_id or vehicle_id in self._external or vehicle_id in self._stopped:
+                if not emergency_id or vehicle_id in self._external or vehicle_id in self._stopped \
+                        or vehicle_id in self._outlines:
                     continue
                 if float(libsumo.vehicle.getParameter(vehicle_id, "laneChangeModel.lcStrategic")) >= 0.0:
                     continue  # released already (the device takes it once)
@@ -106,7 +107,8 @@ class DriverCommands(BridgeState):
                     libsumo.vehicle.setMinGap(vehicle_id, own_gap_m)
                     del self._edging_out[vehicle_id]
             waiting = {}
-            for vehicle_id in present - self._external.keys() - self._stopped - self._edging_out.keys():
+            ours = self._external.keys() | self._outlines.keys() | self._stopped
+            for vehicle_id in present - ours - self._edging_out.keys():
                 if libsumo.vehicle.getSpeed(vehicle_id) < QUEUE_STANDING_MPS \
                         and self._stands_behind_obstacle(vehicle_id, at_gap_m):
                     waiting[vehicle_id] = self._edge_out_waits.get(vehicle_id, 0) + 1

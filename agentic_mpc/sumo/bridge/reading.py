@@ -110,7 +110,7 @@ class Reading(BridgeState):
         for vehicle_id, values in libsumo.vehicle.getContextSubscriptionResults(ego_id).items():
             if vehicle_id == ego_id:
                 ego = state(vehicle_id, values)
-            else:
+            elif vehicle_id not in self._outlines:  # the ego's own protruding part (show_outline)
                 others.append(state(vehicle_id, values))
         if ego is None and self._context_ego in libsumo.vehicle.getIDList():
             ego = self.vehicle_state(self._context_ego)  # off every lane, SUMO leaves it out of its own context

@@ -12,6 +12,8 @@ from agentic_mpc.sumo.bridge.base import _LIBSUMO_ERRORS, BridgeState
 from agentic_mpc.sumo.options import error_message as _message
 from agentic_mpc.sumo.records import SumoError, centre_to_front
 
+_RESIZE_M = 0.05  # the outline is resized in SUMO when its length or width changes by more than this
+
 
 class VehicleCommands(BridgeState):
     """Routes, SUMO-driven, stopped and external vehicles; the external vehicle's pose each step."""
@@ -169,6 +171,38 @@ class VehicleCommands(BridgeState):
         if speed_mps is not None:
             accel = tc.INVALID_DOUBLE_VALUE if accel_mps2 is None else accel_mps2
             self._pending_speeds[vehicle_id] = (speed_mps, accel)
+
+    # --- the external vehicle's outline ---------------------------------------------------------------
+    def show_outline(self, outline_id: str, route_id: str, type_id: str, *, x_m: float, y_m: float, phi_rad: float,
+                     length_m: float, width_m: float, speed_mps: float) -> None:
+        """A vehicle of ``length_m`` x ``width_m`` centred at (x, y), heading ``phi_rad``, moving at ``speed_mps``:
+        the part of the external vehicle that sticks into a lane it is not in (``agentic_mpc.sumo.outline``).
+        Added where it is first shown (``moveToXY`` inserts a vehicle SUMO has not inserted yet, on the road),
+        resized as it changes; left out of :meth:`around` and :attr:`collisions`."""
+        x_front, y_front, angle = centre_to_front(x_m, y_m, phi_rad, length_m)
+        shown = self._outlines.get(outline_id)
+        try:
+            if shown is None:
+                libsumo.vehicle.add(outline_id, route_id, typeID=type_id, depart="now", departSpeed="0")
+                libsumo.vehicle.setSpeedMode(outline_id, 0)
+                libsumo.vehicle.setLaneChangeMode(outline_id, 0)
+            if shown is None or abs(shown[0] - length_m) > _RESIZE_M or abs(shown[1] - width_m) > _RESIZE_M:
+                libsumo.vehicle.setLength(outline_id, length_m)
+                libsumo.vehicle.setWidth(outline_id, width_m)
+                self._outlines[outline_id] = (length_m, width_m)
+            x_sumo, y_sumo = self._mirrored(x_front, y_front) if self.lefthand else (x_front, y_front)
+            libsumo.vehicle.moveToXY(outline_id, "", -1, x_sumo, y_sumo, angle, keepRoute=2)
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail(f"showing {outline_id!r} at ({x_m:.2f}, {y_m:.2f})", error) from error
+        if shown is not None:  # inserted in an earlier step: SUMO's speed is then ours, as the external vehicle's
+            self._pending_speeds[outline_id] = (speed_mps, tc.INVALID_DOUBLE_VALUE)
+
+    def hide_outline(self, outline_id: str) -> None:
+        """Remove the outline shown by :meth:`show_outline` (nothing if it is not shown)."""
+        if self._outlines.pop(outline_id, None) is not None:
+            self._pending_speeds.pop(outline_id, None)
+            if outline_id in libsumo.vehicle.getIDList():  # not if SUMO removed it (at its route's end)
+                self.remove_vehicle(outline_id)
 
     def _mirrored(self, x_m: float, y_m: float) -> tuple[float, float]:
         """The point mirrored across the centre line of its lane (itself off every lane); see the module doc."""
