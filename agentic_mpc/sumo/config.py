@@ -219,6 +219,12 @@ class SumoConfig(FrozenConfig):
         " them edge out; None (the default: not better on seeds 1000-1019, docs/traffic.md): SUMO's own minGap",
     )
     edge_out_after_s: int = Field(10, ge=1, le=600, description="see edge_out_min_gap_m (whole seconds)")
+    straighten_wedged_after_s: float | None = Field(
+        5.0, gt=0, le=600,
+        description="SUMO's drivers standing this long astride a lane line, wedged by a stopped obstacle in the lane"
+        " beside, are moved back to their lane's centre (a truck so wedged held the ego behind it for 80 s:"
+        " docs/traffic.md); None: left to SUMO",
+    )
     announce_lane_changes: bool = Field(
         True,
         description="SUMO's drivers told of the ego's lane changes (its plan): followers in the lane it enters asked"

@@ -66,17 +66,13 @@ class SumoWorld:
         self._sumo_steps = 0
         self._asked: set[str] = set()  # followers asked to open a gap for the ego in the last cycle
         self._observation: Observation | None = None
-        for route_file in config.route_files:
-            if not Path(route_file).is_file():
-                raise WorldError(f"route file not found: {route_file}")
+        if missing := [route_file for route_file in config.route_files if not Path(route_file).is_file()]:
+            raise WorldError(f"route file not found: {missing[0]}")
         try:
             self.network = RoadNetwork(config.net_file)
             self.road: Road = self.network.road(config.road)
-        except NetworkError as error:
-            raise WorldError(str(error)) from error
-        try:
             self._route_types = read_route_types(config.route_files)
-        except RouteFileError as error:
+        except (NetworkError, RouteFileError) as error:
             raise WorldError(str(error)) from error
         self.rescue_lanes = rescue_lanes_active(config, self._route_types)
         """Whether SUMO's drivers form rescue lanes in this run (``config.rescue_lanes`` resolved)."""
@@ -355,8 +351,9 @@ class SumoWorld:
         self._asked = asked
 
     def _step_sumo(self) -> None:
-        """One SUMO step; once a second, drivers at their minGap behind a stopped obstacle get room to edge out (if
-        configured), and with rescue lanes those an emergency vehicle passed (or both stand behind one) are released."""
+        """One SUMO step; once a second, drivers near a stopped obstacle get room to edge out or are moved back into
+        their lane (as configured), and with rescue lanes those an emergency vehicle passed (or both stand behind one)
+        are released."""
         self._bridge.step()
         self._sumo_steps += 1
         if self._sumo_steps % _RELEASE_EVERY_STEPS != 0:
@@ -364,6 +361,8 @@ class SumoWorld:
         c, rescue = self.config, self.config.rescue_lanes
         if c.edge_out_min_gap_m is not None and c.obstacles:
             self._bridge.edge_out_behind_obstacles(c.edge_out_min_gap_m, c.edge_out_after_s)
+        if c.straighten_wedged_after_s is not None and c.obstacles:
+            self._bridge.straighten_wedged(c.straighten_wedged_after_s)
         if self.rescue_lanes:
             self._bridge.release_rescue_lanes(rescue.release_behind_m or rescue.reaction_dist_m,
                                               self._route_types.lc_strategic, rescue.release_blocked_within_m)

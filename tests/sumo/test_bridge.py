@@ -136,3 +136,48 @@ def test_a_driver_standing_at_its_min_gap_behind_an_obstacle_gets_room_to_edge_o
         assert libsumo.vehicle.getLaneIndex("close") != 1 or libsumo.vehicle.getLanePosition("close") > 200.0
         sumo.edge_out_behind_obstacles(0.2)
         assert libsumo.vehicle.getMinGap("close") == own_gap_m
+
+
+def _wedged_truck(sumo: SumoBridge) -> float:
+    """A truck standing at its minGap behind a stopped car in the lane beside, astride the line between (1.2 m over
+    it), an external ego standing 1.4 m behind it: SUMO's standstill of incident_in_traffic seed 1311. Returns
+    the ego's centre x."""
+    import libsumo
+
+    sumo.add_route("r", ["straight"])
+    sumo.add_stopped_vehicle("obstacle", "road", "obstacle", edge_id="straight", lane_index=1, pos_m=200.0)
+    sumo.add_external_vehicle("ego", "r", "ego", lane_index=2, pos_m=120.0, speed_mps=0.0)
+    front_m = 200.0 - libsumo.vehicle.getLength("obstacle") - 3.0
+    sumo.add_vehicle("truck", "road", "truck", lane_index=2, pos_m=front_m, speed_mps=0.0)
+    sumo.step()
+    libsumo.vehicle.setLaneChangeMode("truck", 0)  # put astride the line, as SUMO's own move at 0 m/s left it
+    libsumo.vehicle.changeSublane("truck", -1.7)
+    libsumo.vehicle.setSpeed("truck", 0.0)
+    for _ in range(75):
+        sumo.step()
+    libsumo.vehicle.setLaneChangeMode("truck", 1621)
+    libsumo.vehicle.setSpeed("truck", -1)
+    return front_m - 12.0 - 1.4 - 2.6
+
+
+def test_a_driver_wedged_astride_a_lane_line_by_a_stopped_car_is_moved_back_into_its_lane():
+    import libsumo
+
+    for straighten in (False, True):
+        with SumoBridge(NET, [ROUTES], lateral_resolution_m=0.4) as sumo:
+            ego_x_m = _wedged_truck(sumo)
+            moved = []
+            for step in range(500):  # 20 s
+                sumo.move_external("ego", ego_x_m, 3.5, 0.0, speed_mps=0.0)
+                sumo.step()
+                if straighten and step % 25 == 0 and (now := sumo.straighten_wedged(5.0)):
+                    assert libsumo.vehicle.getLaneChangeMode("truck") == 0  # SUMO's checks off for the move
+                    moved += now
+            lateral_m, at_m = libsumo.vehicle.getLateralLanePosition("truck"), libsumo.vehicle.getLanePosition("truck")
+            if straighten:  # moved once, after 5 s standing; back in its lane, past the car, its own mode back
+                assert moved == ["truck"]
+                assert abs(lateral_m) < 0.1 and at_m > 230.0
+                assert libsumo.vehicle.getLaneChangeMode("truck") == 1621
+            else:  # left to SUMO, it stands astride for good
+                assert lateral_m == pytest.approx(-1.7, abs=0.01) and at_m == pytest.approx(192.5)
+                assert libsumo.vehicle.getSpeed("truck") == 0.0

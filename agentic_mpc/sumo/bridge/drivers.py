@@ -1,5 +1,5 @@
 """Telling SUMO's drivers things: vType parameters, gaps to open for the ego, release from a rescue lane, room
-to edge out from behind a stopped obstacle."""
+to edge out from behind a stopped obstacle, a move back into their lane when wedged astride a line."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ from agentic_mpc.sumo.records import SumoError
 
 _SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (every kind of change, respecting others)
 _GAP_CHANGE_RATE = 1.0  # openGap: how fast the follower's headway moves to the requested one (per s)
+STICK_OUT_M = 0.1
+"""A driver whose body reaches this far over its lane's line stands astride it (a sublane is 0.4 m wide)."""
 
 
 class DriverCommands(BridgeState):
@@ -127,3 +129,48 @@ class DriverCommands(BridgeState):
         leader = libsumo.vehicle.getLeader(vehicle_id, 10.0)
         return bool(leader) and leader[0] in self._stopped and (within_m is None or leader[1] <= within_m)
 
+    def straighten_wedged(self, after_s: float, within_m: float = 0.5, for_s: float = 5.0) -> tuple[str, ...]:
+        """Drivers wedged astride a lane line by a stopped obstacle are moved back to their lane's centre.
+
+        Wedged: standing (SUMO's waiting time at least ``after_s``), part of the body over the lane's line
+        (``STICK_OUT_M``), and a stopped obstacle in the lane beside ahead within ``within_m``. SUMO's sublane
+        model moved such a driver sideways at a standstill and stopped it halfway: its move on was blocked by the
+        vehicles behind it, and the obstacle it overlapped was its leader at 0 m, so it and the ego behind it
+        stood for good (``incident_in_traffic`` seed 1311, a truck: 80 s; docs/traffic.md). Wedged on any
+        standing vehicle beside, drivers in the middle of a zipper merge were moved back too, and the ego had
+        more contacts at fault. The move is a ``changeSublane`` with the lane-change mode at 0 (SUMO's checks of
+        others off; the move stays inside the driver's own lane) for ``for_s``, then its own mode again.
+        External, stopped and emergency vehicles (and outlines) are left alone. Returns the ids moved now."""
+        self._require_running()
+        moved = []
+        try:
+            present = set(libsumo.vehicle.getIDList())
+            now_s = libsumo.simulation.getTime()
+            for vehicle_id, (own_mode, until_s) in list(self._straightening.items()):
+                if vehicle_id not in present:
+                    del self._straightening[vehicle_id]
+                elif now_s >= until_s:
+                    libsumo.vehicle.setLaneChangeMode(vehicle_id, own_mode)
+                    del self._straightening[vehicle_id]
+            ours = self._external.keys() | self._outlines.keys() | self._stopped | self._emergency
+            for vehicle_id in sorted(present - ours - self._straightening.keys()):
+                if libsumo.vehicle.getWaitingTime(vehicle_id) < after_s:
+                    continue
+                lateral_m = libsumo.vehicle.getLateralLanePosition(vehicle_id)
+                half_lane_m = 0.5 * libsumo.lane.getWidth(libsumo.vehicle.getLaneID(vehicle_id))
+                if abs(lateral_m) + 0.5 * libsumo.vehicle.getWidth(vehicle_id) - half_lane_m < STICK_OUT_M \
+                        or not self._wedged(vehicle_id, within_m):
+                    continue
+                self._straightening[vehicle_id] = (libsumo.vehicle.getLaneChangeMode(vehicle_id), now_s + for_s)
+                libsumo.vehicle.setLaneChangeMode(vehicle_id, 0)
+                libsumo.vehicle.changeSublane(vehicle_id, -lateral_m)
+                moved.append(vehicle_id)
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail("moving wedged drivers back into their lanes", error) from error
+        return tuple(moved)
+
+    def _wedged(self, vehicle_id: str, within_m: float) -> bool:
+        """Whether a stopped obstacle in a lane beside is ahead of ``vehicle_id`` within ``within_m`` (leaders to
+        the right and to the left: getNeighbors modes 3 and 2)."""
+        return any(gap_m <= within_m and other in self._stopped
+                   for mode in (2, 3) for other, gap_m in libsumo.vehicle.getNeighbors(vehicle_id, mode))
