@@ -34,6 +34,7 @@ class ObservationBuilder:
         info: Callable[[str], VehicleInfo],
         obstacle_ids: Iterable[str] = (),
         obstacle_poses: Callable[[str], VehicleState | None] | None = None,
+        centre_lateral: bool = False,
     ) -> None:
         self.road = road
         self.ego_id = ego_id
@@ -43,6 +44,8 @@ class ObservationBuilder:
         string hashing, and with it the order of J2's obstacles and which one ``obstacle_side`` reports)."""
         self.obstacle_ids = frozenset(self.obstacle_order)
         self._obstacle_poses = obstacle_poses
+        self.centre_lateral = centre_lateral
+        """A vehicle's lateral offset: its centre's (True) or SUMO's lateral position, its front's (False)."""
         self._position_in_order = {lane: i for i, lane in enumerate(road.left_to_right)}
         self._lane_ids = {span.lane_id for span in road.spans.values()}
         self._known: dict[str, tuple[VehicleInfo, float, float]] = {}  # see _sizes
@@ -135,7 +138,7 @@ class ObservationBuilder:
         obstacles: dict[str, ObstacleObservation] = {}
         # The hot loop (every vehicle in range, every step): locals and one lane lookup per vehicle.
         lanes, known, obstacle_ids = self._lanes, self._known, self.obstacle_ids
-        to_road_s = road.lane_to_road_s
+        to_road_s, lane_tables, centre_lateral = road.lane_to_road_s, road.lane_tables, self.centre_lateral
         ego_order = lanes[ego.lane_id][5] if on_road else None
         cos, sin = math.cos, math.sin
         for state in others:
@@ -151,6 +154,8 @@ class ObservationBuilder:
             else:
                 index, start, factor, role, edge, order = lane
                 lane_s = start + lane_pos * factor - half
+                if centre_lateral:  # SUMO's is the front's; the centre sits off it by half the length x the angle
+                    lateral_offset = locate(lane_tables[index], x, y, lane_s)[1]
                 s = to_road_s(index, lane_s)
                 relative = None if ego_order is None else ego_order - order
             offset = s - ego_s

@@ -97,7 +97,7 @@ class SumoWorld:
             self._lane_of_path: dict[int, tuple[Any, int | None]] = {}
             self._surroundings: dict[int, SurroundingsBuilder] = {}
             self._observer = ObservationBuilder(self.road, config.ego_id, self._bridge.info, self.obstacle_ids,
-                                                self._obstacle_state)
+                                                self._obstacle_state, config.centre_lateral_offsets)
             self._observation = self._observe()
             yield_mps2 = config.surroundings.follower_yield_mps2
             self._intention = IntentionReader(self.road, self.ego_width_m, max_decel_mps2=yield_mps2

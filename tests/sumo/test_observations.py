@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import math
 
+import libsumo
+import numpy as np
 import pytest
 
 from agentic_mpc.sumo.config import EgoStart, StaticObstacle, SumoConfig, VehicleSpawn
@@ -83,3 +85,38 @@ def test_observation_is_frozen():
         observation.time_s = 1.0  # type: ignore[misc]
     with pytest.raises(AttributeError):
         observation.ego.x_m = 1.0  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("centre_lateral_offsets", [False, True])
+def test_a_truck_changing_lanes_is_observed_where_its_body_is_and_covered_there(centre_lateral_offsets):
+    """Under the sublane model SUMO moves a vehicle sideways and shows it turned; its lateral position is the
+    front's, and at a crawl the back trails the front across the lanes. With ``centre_lateral_offsets`` the
+    observation's lateral offset is the centre's and J0's discs sit on the body (incident seed 1406: without it
+    they sat 0.8 m off a 12 m truck that had just changed lanes at 1 m/s, and the ego drove into the part they
+    left out); without it the offset is SUMO's (the default, docs/traffic.md)."""
+    truck = VehicleSpawn(id="truck", type_id="truck", lane="left", pos_m=110.0, speed_mps=1.0, lane_changes=False)
+    config = SumoConfig(net_file=NET, route_files=(ROUTES,), road="straight", sublane=True, vehicles=(truck,),
+                        ego=EgoStart(lane="right", pos_m=100.0, speed_mps=1.0),
+                        centre_lateral_offsets=centre_lateral_offsets)
+    with SumoWorld(config) as world:
+        libsumo.vehicle.changeLane("truck", 1, 10.0)  # into the centre lane, next to the ego's
+        while world.observation.vehicle("truck").lane_role != "center" and world.time_s < 10.0:
+            world.advance(0.0, 0.0, 0.0)
+        seen = world.observation.vehicle("truck")
+        front_lateral_m = libsumo.vehicle.getLateralLanePosition("truck")
+        centre_lateral_m = world.lateral_offset_m(seen.lane_index, seen.x_m, seen.y_m)
+        discs = [d for d in world.surroundings(30, None).moving_discs
+                 if math.hypot(d.centres[0][0] - seen.x_m, d.centres[0][1] - seen.y_m) < 0.5 * seen.length_m + 3.0]
+    assert seen.lane_role == "center" and seen.heading_rad < -0.05  # turned toward its new lane
+    # The centre trails the front by half the length times the angle: 0.7 m toward the old lane.
+    assert centre_lateral_m == pytest.approx(front_lateral_m - 6.0 * math.sin(seen.heading_rad), abs=0.05)
+    assert centre_lateral_m - front_lateral_m > 0.5
+    assert discs, "the truck has discs"
+    row_middle = np.mean([d.centres[0] for d in discs], axis=0)  # stage 0: one step ahead, along the road
+    if not centre_lateral_offsets:
+        assert seen.lateral_offset_m == pytest.approx(front_lateral_m, abs=1e-6)
+        assert row_middle[1] == pytest.approx(seen.y_m - (centre_lateral_m - front_lateral_m), abs=0.05)
+        return
+    assert seen.lateral_offset_m == pytest.approx(centre_lateral_m, abs=1e-6)
+    assert row_middle[1] == pytest.approx(seen.y_m, abs=0.05)  # the straight road runs along x
+    assert row_middle[0] == pytest.approx(seen.x_m, abs=0.5)
