@@ -220,10 +220,10 @@ class SumoConfig(FrozenConfig):
     )
     edge_out_after_s: int = Field(10, ge=1, le=600, description="see edge_out_min_gap_m (whole seconds)")
     centre_lateral_offsets: bool = Field(
-        False,
-        description="observe SUMO drivers' lateral offsets at their centres, where J0's discs then sit (SUMO's lateral"
-        " position is the front's: 0.8 m off the centre of a 12 m truck turned while changing lanes); off: on unseen"
-        " incident seeds it passed fewer runs with no fewer contacts at fault (docs/traffic.md)",
+        True,
+        description="observe SUMO drivers' lateral offsets at their centres, where J0's discs then sit; False: SUMO's"
+        " lateral position, the front's (0.8 m off the centre of a 12 m truck turned while changing lanes, and the"
+        " discs as far off its body: docs/traffic.md)",
     )
     straighten_wedged_after_s: float | None = Field(
         5.0, gt=0, le=600,

@@ -34,7 +34,7 @@ class ObservationBuilder:
         info: Callable[[str], VehicleInfo],
         obstacle_ids: Iterable[str] = (),
         obstacle_poses: Callable[[str], VehicleState | None] | None = None,
-        centre_lateral: bool = False,
+        centre_lateral: bool = True,
     ) -> None:
         self.road = road
         self.ego_id = ego_id

@@ -116,9 +116,9 @@ class VehicleObservation:
     lane_s_m: float | None
     """Arc length of its centre on its lane's path through the road (None off the road): for prediction."""
     lateral_offset_m: float
-    """Signed distance from its lane's centre line, positive to the left (as the ego's): the collision causes
-    compare the two. In SUMO it is SUMO's lateral position, which is the front's (a vehicle turned to its lane has
-    its centre off it), unless ``simulation: {centre_lateral_offsets: true}``: then the centre's."""
+    """Signed distance of the centre from its lane's centre line, positive to the left (as the ego's): the
+    collision causes compare the two. In SUMO with ``simulation: {centre_lateral_offsets: false}``, SUMO's lateral
+    position instead, which is the front's (a vehicle turned to its lane has its centre off it)."""
 
     def to_json(self) -> dict[str, Any]:
         return _rounded(self)

@@ -93,7 +93,7 @@ def test_a_truck_changing_lanes_is_observed_where_its_body_is_and_covered_there(
     front's, and at a crawl the back trails the front across the lanes. With ``centre_lateral_offsets`` the
     observation's lateral offset is the centre's and J0's discs sit on the body (incident seed 1406: without it
     they sat 0.8 m off a 12 m truck that had just changed lanes at 1 m/s, and the ego drove into the part they
-    left out); without it the offset is SUMO's (the default, docs/traffic.md)."""
+    left out, and it is the default); without it the offset is SUMO's (docs/traffic.md)."""
     truck = VehicleSpawn(id="truck", type_id="truck", lane="left", pos_m=110.0, speed_mps=1.0, lane_changes=False)
     config = SumoConfig(net_file=NET, route_files=(ROUTES,), road="straight", sublane=True, vehicles=(truck,),
                         ego=EgoStart(lane="right", pos_m=100.0, speed_mps=1.0),
