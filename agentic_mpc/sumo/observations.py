@@ -203,13 +203,16 @@ class ObservationBuilder:
                 s, lane_s = self._road_s(state, info.length_m)
                 offset = s - ego_s
                 gap = abs(offset) - 0.5 * info.length_m - ego_half
+                lateral = state.lateral_offset_m
+                if self.centre_lateral and lane_s is not None:  # as the traffic's (the hot loop above)
+                    lateral = locate(road.lane_tables[self._lanes[state.lane_id][0]], state.x_m, state.y_m, lane_s)[1]
                 vehicle = VehicleObservation(
                     state.id, info.type_id, info.vclass, state.x_m, state.y_m, state.heading_rad, state.speed_mps,
                     state.speed_mps * math.cos(state.heading_rad), state.speed_mps * math.sin(state.heading_rad),
                     state.lane_id, state.lane_index, self._role(state.lane_id, state.lane_index),
                     self._edge(state.lane_id), info.length_m, info.width_m, s, offset, gap,
                     self._relation(offset, gap), self._relative_lane(ego_lane, state.lane_id, state.lane_index),
-                    lane_s, state.lateral_offset_m,
+                    lane_s, lateral,
                 )
             along = self._along_speed(state, vehicle.road_s_m)
             # d|offset|/dt = sign(offset) * (v_other - v_ego) along the road; closing is its negative.
