@@ -20,6 +20,7 @@ from agentic_mpc.sumo.scenarios import nets_dir
 NETS = nets_dir()
 STOPPED_POS_M = 700.0  # the incident scenario's car on the curve
 STANDING_MPS = 0.1
+STEP_S = 0.1  # coarser than the scenarios' 0.04 s: the queue forms alike, in a third of the time
 
 
 def _traffic_past_a_stopped_car(route_file: Path, seed: int, duration_s: float = 240.0) -> tuple[int, float, int]:
@@ -27,7 +28,7 @@ def _traffic_past_a_stopped_car(route_file: Path, seed: int, duration_s: float =
     passed: set[str] = set()
     standing_s: dict[str, float] = {}
     longest_s = 0.0
-    with SumoBridge(NETS / "curvy.net.xml", [route_file], seed=seed, step_length_s=0.1,
+    with SumoBridge(NETS / "curvy.net.xml", [route_file], seed=seed, step_length_s=STEP_S,
                     lateral_resolution_m=0.4) as sumo:
         sumo.add_stopped_vehicle("stopped", "road", "obstacle", edge_id="curvy", lane_index=1, pos_m=STOPPED_POS_M)
         while sumo.time_s < duration_s:
@@ -39,7 +40,7 @@ def _traffic_past_a_stopped_car(route_file: Path, seed: int, duration_s: float =
                 if pos_m > STOPPED_POS_M:
                     passed.add(vehicle_id)
                 elif libsumo.vehicle.getSpeed(vehicle_id) < STANDING_MPS and pos_m > STOPPED_POS_M - 150.0:
-                    standing_s[vehicle_id] = standing_s.get(vehicle_id, 0.0) + 0.1
+                    standing_s[vehicle_id] = standing_s.get(vehicle_id, 0.0) + STEP_S
                     longest_s = max(longest_s, standing_s[vehicle_id])
                 else:
                     standing_s[vehicle_id] = 0.0
