@@ -239,7 +239,7 @@ def rollout_costs(
         for i in range(n_samples):
             behind = tx * (cx - x[i]) + ty * (cy - y[i])
             beside = tx * (cy - y[i]) - ty * (cx - x[i])
-            if behind > 0.0 and abs(beside) < radius:  # in the lane's band; aside: from the car itself
+            if behind > -radius and abs(beside) < radius:  # in line, not past the rear disc; aside: from the car
                 cos_end = cos_g - (radius - min(abs(beside + offset), radius)) / turn_radius
                 wanted = turn_radius * (np.sqrt(1.0 - cos_end * cos_end) - sin_g) + half_inv_decel * v[i] * v[i]
                 shortfall = max(0.0, wanted - (behind - radius))

@@ -17,10 +17,10 @@
   rest of the way round it, worked out from its geometry (``VehicleParams.pull_out_distance_m`` at
   ``queue_room_steer`` of full lock: about 10 m from straight behind, less from partly aside, so that pulling
   out costs nothing on the way), plus the distance to stop from its final speed at ``queue_room_decel_mps2``. So the
-  ego either pulls out or comes in at a speed it can stop from with room; a plan that ends beside or past
-  the blockage pays nothing (docs/traffic.md: without it the ego stood 0.5 m behind a stopped car, from
-  where no path of the model gets round, for 90 s; charged at every stage, the room made braking in lane
-  cheaper than pulling out);
+  ego either pulls out or comes in at a speed it can stop from with room; a plan that ends beside the blockage
+  or past its rear disc pays nothing (docs/traffic.md: without it the ego stood 0.5 m behind a stopped car,
+  from where no path of the model gets round, for 90 s; charged at every stage, the room made braking in lane
+  cheaper than pulling out; inside the disc is not past it: "Leaving a standstill");
 - smoothness of the planned inputs: a plan whose throttle/brake jumps from stage to stage costs more, so the
   weighted average of smooth plans is smooth (docs/cost-design.md).
 
@@ -245,7 +245,7 @@ class PreparedMandatory:
             # The run needed to get the rest of the way aside (VehicleParams.pull_out_distance_m), + stopping.
             cos_end = cos_g - (radius - np.minimum(aside, radius)) / turn_radius  # out of line: masked
             wanted = turn_radius * (np.sqrt(1.0 - cos_end * cos_end) - sin_g) + half_inv_decel * v_end * v_end
-            shortfall = np.where((behind > 0.0) & (np.abs(beside) < radius),
+            shortfall = np.where((behind > -radius) & (np.abs(beside) < radius),
                                  np.maximum(0.0, wanted - (behind - radius)), 0.0)
             q = QUEUE_ROOM_KNEE_M
             total += weight * np.where(shortfall > q, q * (2.0 * shortfall - q), shortfall**2)

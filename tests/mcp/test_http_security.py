@@ -6,6 +6,7 @@ Loopback only; every loop is bounded in count and time. The soak test is marked 
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 import os
 import signal
@@ -288,6 +289,7 @@ FUZZ_BODIES = [
 VALID_SPEEDS = (10.0, 11.0, 12.0, 13.0, 14.0)
 LOAD_S = 10.0
 FUZZ_REQUESTS = 2000
+FUZZ_MIN_S = 4.0  # the fuzz phase lasts at least this long: its median step time needs more than 50 steps
 
 
 def _median_step_ms(trajectory: pd.DataFrame, start_s: float, end_s: float, column: str = "step_ms") -> float:
@@ -329,11 +331,13 @@ def test_soak_fuzz_and_fifty_clients(tmp_path):
         except Exception as error:  # noqa: BLE001 - an unanswered valid call fails the test
             failures.append(f"client {index}: {error!r}")
 
-    async def fuzzer(index: int, stop_at: float, count: int) -> None:
+    async def fuzzer(index: int, stop_at: float, count: int, busy_until: float = 0.0) -> None:
+        """``count`` requests (more until ``busy_until``: on a fast machine 2000 took 1.2 s, too few steps to
+        measure the step time under fuzz), never past ``stop_at``."""
         loop = asyncio.get_running_loop()
         async with httpx.AsyncClient(timeout=30) as http:
-            for n in range(count):
-                if loop.time() >= stop_at:
+            for n in itertools.count():
+                if loop.time() >= stop_at or n >= count and loop.time() >= busy_until:
                     break
                 body = FUZZ_BODIES[(n + index) % len(FUZZ_BODIES)]
                 headers = dict(ACCEPT)
@@ -356,7 +360,8 @@ def test_soak_fuzz_and_fifty_clients(tmp_path):
             t1 = await ego_time(observer)
             # a few thousand malformed and oversized requests, then 50 clients (and more fuzz) for LOAD_S
             fuzz_window = (await ego_time(observer), 0.0)
-            await asyncio.gather(*(fuzzer(i, loop.time() + 60, FUZZ_REQUESTS // 4) for i in range(4)))
+            busy_until = loop.time() + FUZZ_MIN_S
+            await asyncio.gather(*(fuzzer(i, loop.time() + 60, FUZZ_REQUESTS // 4, busy_until) for i in range(4)))
             fuzz_window = (fuzz_window[0], await ego_time(observer))
             t2 = await ego_time(observer)
             wall = loop.time()

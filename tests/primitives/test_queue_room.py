@@ -71,6 +71,14 @@ def test_aside_counts_from_the_car_and_in_line_from_its_lane():
     assert _standing_costs(5.0, lateral_m=-3.5, car_offset_m=-1.5) == 0.0
 
 
+def test_a_plan_that_ends_inside_the_rear_disc_past_its_centre_is_not_past_it():
+    """Past the disc's centre but inside it is inside the car: it pays more than anywhere behind (counted past, it
+    paid nothing, and a plan that drove into the gap between stopped cars abreast was cheaper than standing,
+    docs/traffic.md, "Leaving a standstill"). Past the disc, the plan is beside or past the car."""
+    assert _standing_costs(-RADIUS_M - 1.0) > _standing_costs(0.5) > 0.0
+    assert _standing_costs(-2.0 * RADIUS_M - 0.1) == 0.0
+
+
 def test_a_moving_plan_wants_its_stopping_distance_on_top():
     room = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5)
     v = 10.0
