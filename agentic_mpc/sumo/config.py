@@ -67,10 +67,10 @@ class SurroundingsConfig(FrozenConfig):
     approach_decel_mps2: float | None = Field(
         None,
         gt=0,
-        description="coming up to a queue (cars standing behind a stopped one) in the lane J1 follows, J1's "
+        description="coming up to a queue (cars standing behind a stopped one) in the lane the ego is in, J1's "
         "reference slows so that braking at this rate stops it with room to pull out (None, the default: at v_ref "
         "until J0 sees the queue 2 s ahead; the ego then braked at 5 m/s^2 and stood 1.6 m behind the queue's last "
-        "car). Off until measured on unseen seeds: at 2.0 on seen seeds 900-919 it was mixed (docs/traffic.md)",
+        "car). Off: at 2.0 it was mixed on seen seeds 900-919 and worse on unseen 2100-2119 (docs/traffic.md)",
     )
     edges: Literal["road", "corridor", "none"] = Field(
         "road",

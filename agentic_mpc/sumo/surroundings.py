@@ -364,8 +364,10 @@ class SurroundingsBuilder:
         # asking for it made the ego steer and creep into the car (ego_into_stopped at 0.2 m/s, seeds 0-2).
         blockages = tuple(queue.tail for queue in self.queues(observation) if not queue.nose_to_tail)
         cap = None
-        if self.config.approach_decel_mps2 is not None and observation.ego.lane_index == target_lane:
-            cap = approach_speed_cap_mps(self.queues(observation), target_lane, self.config.approach_decel_mps2,
-                                         self.params.pull_out_distance_m)
+        # The queue in the ego's own lane, whichever lane J1 follows: with J1 on the lane beside (a detour), the ego
+        # came up at 15 m/s, found no gap to pull out into and braked too late (seed 1908, docs/traffic.md).
+        if self.config.approach_decel_mps2 is not None and observation.ego.lane_index is not None:
+            cap = approach_speed_cap_mps(self.queues(observation), observation.ego.lane_index,
+                                         self.config.approach_decel_mps2, self.params.pull_out_distance_m)
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
                             blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=cap)

@@ -328,8 +328,8 @@ def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_
 def test_coming_up_to_a_queue_j1_slows_to_a_speed_it_can_stop_from_with_room():
     """A queue (a stopped car, two behind it) ahead in the ego's lane: J1's reference speed is capped at the
     speed from which braking at approach_decel_mps2 stops the ego the model's pull-out room behind the last car
-    (at least 2 m/s); a lone stopped car (the paper's Scenario 1), the ego in the lane beside, or the cap off
-    (the default): no cap."""
+    (at least 2 m/s), whichever lane J1 follows; a lone stopped car (the paper's Scenario 1), the ego in the lane
+    beside, or the cap off (the default): no cap."""
     from agentic_mpc.sumo.config import StaticObstacle
     from agentic_mpc.vehicle import PAPER_PARAMS
 
@@ -346,6 +346,8 @@ def test_coming_up_to_a_queue_j1_slows_to_a_speed_it_can_stop_from_with_room():
         cap = builder.build(observation, world.ego_state, target_lane=1).reference_speed_cap_mps
         assert cap == pytest.approx(math.sqrt(2.0 * 2.0 * (blockage.tail_gap_m - room)), rel=1e-12)
         assert cap < 15.0
+        # J1 on the lane beside (a detour) while the ego is still in the queue's lane: the same cap
+        assert builder.build(observation, world.ego_state, target_lane=2).reference_speed_cap_mps == cap
         nearly_there = dataclasses.replace(blockage, tail_gap_m=room + 0.3)
         from agentic_mpc.sumo.queues import approach_speed_cap_mps
 
