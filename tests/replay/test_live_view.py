@@ -28,6 +28,7 @@ def _served_view(tmp_path: Path, *args: str, env: dict[str, str] | None = None) 
 
 
 @pytest.mark.slow
+@pytest.mark.timing  # compares control steps with the page open and closed: alone, not beside other tests
 def test_a_message_typed_into_the_page_reaches_the_agent_and_changes_the_specification(tmp_path):
     if not CHROMIUM.is_file():
         pytest.skip(f"{CHROMIUM} is missing: install Debian's chromium (make test does it as root)")
@@ -88,7 +89,12 @@ def test_a_message_typed_into_the_page_reaches_the_agent_and_changes_the_specifi
           f"{window.step_ms.median():.3f} ms with the page open ({len(window)} steps); after it closed "
           f"{closed.solve_ms.median():.3f} / {closed.step_ms.median():.3f} ms ({len(closed)} steps)")
     assert len(window) > 120 and len(closed) > 60
-    assert window.step_ms.median() < 1.5 * closed.step_ms.median()
+    # the loop's step over the controller's solve in the same steps: what the page costs the loop, with what a busy
+    # machine does to both steps divided out (on CI, Chromium slowed the solve itself 1.47 times)
+    open_over_solve = (window.step_ms / window.solve_ms).median()
+    closed_over_solve = (closed.step_ms / closed.solve_ms).median()
+    print(f"live view: step over solve {open_over_solve:.2f} with the page open, {closed_over_solve:.2f} after")
+    assert open_over_solve < 1.5 * closed_over_solve
 
 
 def test_the_page_wants_the_token_once_and_refuses_foreign_hosts_origins_and_malformed_chat(tmp_path):
