@@ -93,6 +93,9 @@ def rollout_costs(
     leader_standstill,
     time_gap,
     queue_rooms,
+    lane_line_table,
+    lane_line_offsets,
+    lane_line_params,
     work,
     costs,
 ):
@@ -245,6 +248,24 @@ def rollout_costs(
                 shortfall = max(0.0, wanted - (behind - radius))
                 huber = _ROOM_KNEE * (2.0 * shortfall - _ROOM_KNEE) if shortfall > _ROOM_KNEE else shortfall * shortfall
                 costs[i] += weight * huber
+    n_points = lane_line_table.shape[0]
+    if n_points > 0 and lane_line_offsets.shape[0] > 0:  # J0: a plan that ends standing across a lane line
+        spacing, weight, standing = lane_line_params[0], lane_line_params[1], lane_line_params[2]
+        half_length, half_width = lane_line_params[3], lane_line_params[4]
+        x0, y0, t0x, t0y = lane_line_table[0, 0], lane_line_table[0, 1], lane_line_table[0, 2], lane_line_table[0, 3]
+        for i in range(n_samples):
+            if v[i] < standing:
+                along = t0x * (x[i] - x0) + t0y * (y[i] - y0)
+                j = min(max(int(np.floor(along / spacing + 0.5)), 0), n_points - 1)
+                px, py = lane_line_table[j, 0], lane_line_table[j, 1]
+                tx, ty = lane_line_table[j, 2], lane_line_table[j, 3]
+                lateral = tx * (y[i] - py) - ty * (x[i] - px)
+                reach = half_width * abs(c[i] * tx + s[i] * ty) + half_length * abs(s[i] * tx - c[i] * ty)
+                slow = 1.0 - v[i] / standing
+                for b in range(lane_line_offsets.shape[0]):
+                    overlap = reach - abs(lateral - lane_line_offsets[b])
+                    if overlap > 0.0:
+                        costs[i] += weight * slow * overlap * overlap
 
 
 def fused_costs(

@@ -2,6 +2,7 @@
 
 from agentic_mpc.primitives.base import (
     Blockage,
+    LaneLines,
     Leader,
     MovingDisc,
     Primitive,
@@ -23,6 +24,7 @@ __all__ = [
     "Blockage",
     "Circle",
     "FollowingDistance",
+    "LaneLines",
     "Leader",
     "Mandatory",
     "MovingDisc",

@@ -118,6 +118,20 @@ class Blockage:
 
 
 @dataclass(frozen=True, slots=True)
+class LaneLines:
+    """The lines between a road's lanes near the ego, for J0's "do not stand across a lane line": the road's
+    reference line sampled every ``spacing_m`` from the ego's position on (``points``, unit ``tangents``, (n, 2)),
+    and each line's offset to the left of it. The ego's half extents say how far its body reaches sideways."""
+
+    points: FloatArray
+    tangents: FloatArray
+    spacing_m: float
+    offsets_m: tuple[float, ...]
+    ego_half_length_m: float
+    ego_half_width_m: float
+
+
+@dataclass(frozen=True, slots=True)
 class Surroundings:
     """What the world tells the controller at one step, independent of any simulator."""
 
@@ -131,6 +145,9 @@ class Surroundings:
     reference_shift_m: float = 0.0
     """J1 follows its path shifted this far to the left (negative: right): the lane the ego passes a blockage
     of its tracked lane in, on a road whose lanes run parallel (:class:`~agentic_mpc.primitives.PathTracking`)."""
+    lane_lines: LaneLines | None = None
+    """The lines between lanes: a plan that ends standing across one pays (a yield that stopped straddling two
+    lanes was struck by the ambulance it made way for: docs/traffic.md)."""
     reference_speed_cap_mps: float | None = None
     """J1's reference speed is at most this: coming up to a queue in the lane J1 follows, a speed it can stop
     from with room to pull out (the horizon alone sees 2 s ahead: at 15 m/s, less than the way to stop)."""
@@ -183,6 +200,10 @@ class FusedArrays(NamedTuple):
     # stage, Huber knee m, recovery m per step
     queue_rooms: FloatArray  # (n, 11): rear disc x, y, lane tangent x, y, radius, turn radius, cos and sin of its
     # slip angle, 1/(2 decel), weight on the last stage, the car's lateral offset from the disc's line
+    lane_line_table: FloatArray  # (n, 4): the road's reference line from the ego on, x, y, tangent x, y
+    lane_line_offsets: FloatArray  # (m,): the lines between lanes, left of the reference line, m
+    lane_line_params: FloatArray  # (5,): spacing m, weight on the last stage, standing speed m/s, ego half length,
+    # half width
 
 
 @dataclass(slots=True)
@@ -201,6 +222,8 @@ class FusedTerms:
     leaders: list[tuple[FloatArray, FloatArray, float, float]] = field(default_factory=list)
     time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
     queue_rooms: list[tuple[float, ...]] = field(default_factory=list)
+    lane_lines: tuple[FloatArray, tuple[float, ...], tuple[float, ...]] | None = None
+    """The (n, 4) table, the offsets and the params of :class:`FusedArrays`' lane-line term."""
 
     def build(self) -> FusedArrays:
         # Called every control step: the empty and single-item cases (most of them) allocate nothing new, and
@@ -217,6 +240,8 @@ class FusedTerms:
 
         def table(rows: list[tuple[float, ...]], width: int) -> FloatArray:
             return _table(tuple(rows), width)
+
+        lines, offsets, line_params = self.lane_lines or (_empty((0, 4)), (), (1.0, 0.0, 0.0, 0.0, 0.0))
 
         return FusedArrays(
             track_ref=stack([ref for ref, _, _, _ in self.track]),
@@ -240,6 +265,9 @@ class FusedTerms:
             leader_standstill=np.array([standstill for *_, standstill in self.leaders], dtype=np.float64),
             time_gap=_table((self.time_gap,), len(self.time_gap))[0],
             queue_rooms=table(self.queue_rooms, 11),
+            lane_line_table=lines,
+            lane_line_offsets=_table((offsets,), len(offsets))[0],
+            lane_line_params=_table((line_params,), 5)[0],
         )
 
 

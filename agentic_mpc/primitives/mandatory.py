@@ -21,6 +21,10 @@
   or past its rear disc pays nothing (docs/traffic.md: without it the ego stood 0.5 m behind a stopped car,
   from where no path of the model gets round, for 90 s; charged at every stage, the room made braking in lane
   cheaper than pulling out; inside the disc is not past it: "Leaving a standstill");
+- standing across a lane line (``Surroundings.lane_lines``), a terminal cost while the car moves: a plan that ends
+  slower than ``lane_line_standing_mps`` with the body over a line between lanes pays for how far the body reaches
+  over it, squared, the more the slower it ends. Stand in a lane, or keep going until in one (docs/traffic.md: a
+  yield that stopped half in the edge lane was struck by the ambulance it made way for);
 - smoothness of the planned inputs: a plan whose throttle/brake jumps from stage to stage costs more, so the
   weighted average of smooth plans is smooth (docs/cost-design.md).
 
@@ -38,6 +42,7 @@ from pydantic import Field
 from agentic_mpc.primitives.base import (
     FloatArray,
     FusedTerms,
+    LaneLines,
     Leader,
     MovingDisc,
     Primitive,
@@ -124,6 +129,14 @@ class Mandatory(Primitive):
         4.0, gt=0, description="the wanted room grows by the distance to stop at this deceleration, v^2 / (2 b)"
     )
 
+    lane_line_standing_weight: float = Field(
+        50.0, ge=0, description="on (how far the body reaches over a line between lanes, m)^2 x (1 - v / "
+        "lane_line_standing_mps) at the plan's end (a horizon's worth); 0: off"
+    )
+    lane_line_standing_mps: float = Field(
+        1.0, gt=0, description="a plan that ends slower than this stands: across a lane line, it pays"
+    )
+
     def prepare(self, context: StepContext) -> PreparedMandatory:
         s = context.surroundings
         edges: list[tuple[TrackingReference, float]] = []
@@ -146,8 +159,14 @@ class Mandatory(Primitive):
              self.queue_room_weight, b.lateral_offset_m)
             for b in (s.blockages if self.queue_room_weight > 0.0 else ())
         )
+        # Only for a car that moves: one already standing across a line is not charged for what it cannot leave
+        # but by moving on (in a stand before three stopped cars abreast, it crept at centimetres to get off it).
+        moving = float(context.state[3]) >= self.lane_line_standing_mps
+        lines = s.lane_lines if moving and self.lane_line_standing_weight > 0.0 else None
+        if lines is not None and (not lines.offsets_m or len(lines.points) == 0):
+            lines = None
         return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
-                                 starts, context.dt_s, rooms, standstill)
+                                 starts, context.dt_s, rooms, standstill, lines)
 
 
 def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
@@ -201,6 +220,13 @@ class PreparedMandatory:
     disc's line."""
     standstill_gaps_m: tuple[float, ...] = ()
     """Per leader: d_0, or the room to pull out behind one that drives up to a blockage."""
+    lane_lines: LaneLines | None = None
+
+    def _lane_line_params(self) -> tuple[float, ...]:
+        lines, p = self.lane_lines, self.spec
+        assert lines is not None
+        return (lines.spacing_m, p.lane_line_standing_weight, p.lane_line_standing_mps, lines.ego_half_length_m,
+                lines.ego_half_width_m)
 
     def cost(self, r: Rollouts) -> FloatArray:
         p, h = self.spec, self.horizon
@@ -249,6 +275,29 @@ class PreparedMandatory:
                                  np.maximum(0.0, wanted - (behind - radius)), 0.0)
             q = QUEUE_ROOM_KNEE_M
             total += weight * np.where(shortfall > q, q * (2.0 * shortfall - q), shortfall**2)
+        if self.lane_lines is not None:
+            total += self._standing_across_lines(r)
+        return total
+
+    def _standing_across_lines(self, r: Rollouts) -> FloatArray:
+        """The lane-line term on the last state, written as the fused kernel writes it."""
+        lines = self.lane_lines
+        assert lines is not None
+        spacing, weight, standing, half_length, half_width = self._lane_line_params()
+        x, y, v, phi = r.x_m[-1], r.y_m[-1], r.v_mps[-1], r.phi_rad[-1]
+        (x0, y0), (t0x, t0y) = lines.points[0], lines.tangents[0]
+        along = t0x * (x - x0) + t0y * (y - y0)  # along the road from the ego, by its tangent here: the row
+        j = np.clip(np.floor(along / spacing + 0.5), 0, len(lines.points) - 1).astype(np.int64)
+        px, py = lines.points[j, 0], lines.points[j, 1]
+        tx, ty = lines.tangents[j, 0], lines.tangents[j, 1]
+        lateral = tx * (y - py) - ty * (x - px)
+        c, s = np.cos(phi), np.sin(phi)
+        reach = half_width * np.abs(c * tx + s * ty) + half_length * np.abs(s * tx - c * ty)
+        slow = np.where(v < standing, 1.0 - v / standing, 0.0)
+        total = np.zeros_like(x)
+        for offset in lines.offsets_m:
+            overlap = np.maximum(0.0, reach - np.abs(lateral - offset))
+            total += weight * slow * overlap * overlap
         return total
 
     def add_fused_terms(self, terms: FusedTerms) -> bool:
@@ -278,4 +327,7 @@ class PreparedMandatory:
         for leader, start, d0 in zip(self.leaders, self.gap_starts_m, self.standstill_gaps_m, strict=True):
             terms.leaders.append((leader.contact_points, leader.tangents, start, d0))
         terms.queue_rooms.extend(self.queue_rooms)
+        if self.lane_lines is not None:
+            table = np.ascontiguousarray(np.hstack((self.lane_lines.points, self.lane_lines.tangents)))
+            terms.lane_lines = (table, self.lane_lines.offsets_m, self._lane_line_params())
         return True

@@ -35,6 +35,9 @@ HOPELESS_S = 10.0
 """Stuck this long behind obstacles that block every lane of the road: the run ends, saying so."""
 RESUMED_BAND_MPS = 0.5
 """Back at v_ref: within this of it."""
+RESUME_DECIDED_S = 15.0
+"""A resume the run ends less than this after, short of v_ref, is undecided (NaN), not a miss: from a standstill J1's
+ramp alone takes 5 s to 15 m/s (``traffic_ambulance_dense`` seed 2206 was asked to resume 3 s before its end)."""
 BLOCKAGE_SPAN_M = 15.0
 """Obstacles within this distance of each other along the road block the road together."""
 
@@ -134,11 +137,14 @@ def _why_still(observation: Observation, lane_count: int | None) -> str | None:
 
 def resume_to_v_ref_s(time_s: Any, v_mps: Any, v_ref_mps: Any) -> float:
     """Seconds from the last resume (the reference speed rising from 0 to above it) until the ego's speed is
-    within :data:`RESUMED_BAND_MPS` of the new reference; NaN without a resume, inf if it never got there."""
+    within :data:`RESUMED_BAND_MPS` of the new reference; NaN without a resume or when the run ended less than
+    :data:`RESUME_DECIDED_S` after it short of v_ref, inf if it never got there."""
     time_s, v_mps, v_ref_mps = (np.asarray(a, dtype=np.float64) for a in (time_s, v_mps, v_ref_mps))
     resumes = np.flatnonzero((v_ref_mps[1:] > STANDING_MPS) & (v_ref_mps[:-1] <= STANDING_MPS)) + 1
     if not len(resumes):
         return math.nan
     start = int(resumes[-1])
     back = np.flatnonzero(v_mps[start:] >= v_ref_mps[start:] - RESUMED_BAND_MPS)
-    return round(float(time_s[start + back[0]] - time_s[start]), 3) if len(back) else math.inf
+    if len(back):
+        return round(float(time_s[start + back[0]] - time_s[start]), 3)
+    return math.inf if time_s[-1] - time_s[start] >= RESUME_DECIDED_S else math.nan

@@ -77,6 +77,11 @@ class SurroundingsConfig(FrozenConfig):
         description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"
         " (those its box overlaps + the lane J1 tracks); or none",
     )
+    lane_lines: bool = Field(
+        True,
+        description="J0 sees the lines between lanes: a plan that ends standing across one pays (false: only "
+        "other road users and the edges keep a standing ego anywhere)",
+    )
 
 
 class EgoStart(FrozenConfig):

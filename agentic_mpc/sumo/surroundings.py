@@ -46,7 +46,7 @@ import math
 
 import numpy as np
 
-from agentic_mpc.primitives import Leader, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.primitives import LaneLines, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.covers import DiscCover, disc_cover
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
@@ -64,6 +64,10 @@ from agentic_mpc.world.observation import Observation, VehicleObservation
 
 CUT_IN_LOOKAHEAD_S = 1.0
 """A neighbour whose box is predicted to reach into the ego's path lane within this time counts as a leader."""
+LANE_LINE_SPACING_M = 1.0
+"""J0's lane lines are sampled this often along the road: the nearest row to a plan's end is at most 0.5 m off."""
+LANE_LINE_SPARE_POINTS = 6
+"""Rows beyond the way the ego covers at its speed in a horizon (a plan that speeds up ends a little further)."""
 MAX_LEADERS = 3
 
 
@@ -93,6 +97,8 @@ class SurroundingsBuilder:
         self._horizon_s = horizon * dt_s
         bounds = self._lane_bounds = road.lane_bounds_m
         self._lane_centres = tuple(0.5 * (left + right) for left, right in bounds)
+        # a lane's right line that is not the road's: the lines between lanes
+        self._lines_between_lanes = tuple(sorted(right for _, right in bounds if right > min(r for _, r in bounds)))
         self._covers: dict[tuple[float, float, float], DiscCover] = {}
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
         self._queues_of: Observation | None = None
@@ -370,4 +376,14 @@ class SurroundingsBuilder:
             cap = approach_speed_cap_mps(self.queues(observation), observation.ego.lane_index,
                                          self.config.approach_decel_mps2, self.params.pull_out_distance_m)
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
-                            blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=cap)
+                            blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=cap,
+                            lane_lines=self.lane_lines(observation.ego.road_s_m, float(ego_state[3])))
+
+    def lane_lines(self, road_s_m: float, speed_mps: float) -> LaneLines | None:
+        """The lines between lanes from the ego to past where its plans can end (None with one lane or off)."""
+        if not self.config.lane_lines or not self._lines_between_lanes:
+            return None
+        count = int(math.ceil(max(speed_mps, 0.0) * self._horizon_s / LANE_LINE_SPACING_M)) + LANE_LINE_SPARE_POINTS
+        points, tangents = points_at(self.road.reference_table, road_s_m + LANE_LINE_SPACING_M * np.arange(count))
+        return LaneLines(points, tangents, LANE_LINE_SPACING_M, self._lines_between_lanes, 0.5 * self.ego_length_m,
+                         0.5 * self.ego_width_m)

@@ -9,6 +9,7 @@ from agentic_mpc.primitives import (
     Blockage,
     Circle,
     FollowingDistance,
+    LaneLines,
     Leader,
     Mandatory,
     MovingDisc,
@@ -38,6 +39,8 @@ def specifications():
         "J0 time gap off": Specification.of(Mandatory(time_gap_weight=0.0), j1),
         "J1 lateral weight": Specification.of(j1.model_copy(update={"lateral_weight": 6.0}), j2),
         "J1+J4 following distance": Specification.of(j1, FollowingDistance(gap_m=8.0)),
+        # at 14 m/s no plan stands: count every plan that ends below 20 m/s as standing
+        "J0 lane lines": Specification.of(Mandatory(lane_line_standing_mps=20.0), j1),
     }
 
 
@@ -60,8 +63,13 @@ def surroundings(horizon):
     changing = np.hstack([3 + 12.5 * 0.04 * k, 4.0 + 1.6 * 0.04 * k])
     turned = MovingDisc(changing, 2.55, np.tile([np.cos(0.15), np.sin(0.15)], (horizon, 1)), (2.6, 0.95), 2.4)
     discs = (MovingDisc(ahead, 2.5), turned)
+    # Lines between lanes at 1.75 m left and right of a reference line that bends left (every 1 m, 40 m on)
+    along = np.linspace(0.0, 39.0, 40)
+    bend_angle = along / 150.0
+    lines = LaneLines(np.column_stack([150 * np.sin(bend_angle), 150 * (1 - np.cos(bend_angle))]),
+                      np.column_stack([np.cos(bend_angle), np.sin(bend_angle)]), 1.0, (-1.75, 1.75), 2.3, 0.9)
     return Surroundings(moving_discs=discs, road_left_edge=edge, road_right_edge=right,
-                        leaders=(leader, bend), blockages=blockages)
+                        leaders=(leader, bend), blockages=blockages, lane_lines=lines)
 
 
 @pytest.mark.parametrize("name", list(specifications()))

@@ -3,6 +3,7 @@ as the longest, with its reason, as events, and as the end of a run where every 
 
 from __future__ import annotations
 
+import math
 from types import SimpleNamespace
 
 import pytest
@@ -122,8 +123,10 @@ outputs: {{plot: false, replay: false}}
 def test_resume_to_v_ref_counts_from_the_last_resume_to_back_at_speed():
     from agentic_mpc.run.stuck import resume_to_v_ref_s
 
-    t = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
-    v_ref = [15.0, 0.0, 0.0, 15.0, 15.0, 15.0, 15.0]
-    assert resume_to_v_ref_s(t, [15.0, 8.0, 0.0, 0.0, 9.0, 14.6, 15.0], v_ref) == 2.0  # 14.6: within 0.5
-    assert resume_to_v_ref_s(t, [15.0, 8.0, 0.0, 0.0, 2.0, 5.0, 9.0], v_ref) == float("inf")
-    assert resume_to_v_ref_s(t, [15.0] * 7, [15.0] * 7) != resume_to_v_ref_s(t, [15.0] * 7, [15.0] * 7)  # NaN
+    t = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 18.0]
+    v_ref = [15.0, 0.0, 0.0, 15.0, 15.0, 15.0, 15.0, 15.0]
+    assert resume_to_v_ref_s(t, [15.0, 8.0, 0.0, 0.0, 9.0, 14.6, 15.0, 15.0], v_ref) == 2.0  # 14.6: within 0.5
+    assert resume_to_v_ref_s(t, [15.0, 8.0, 0.0, 0.0, 2.0, 5.0, 9.0, 9.0], v_ref) == float("inf")  # 15 s on
+    # the run ended 3 s after the resume, short of v_ref: undecided (NaN), not a miss
+    assert math.isnan(resume_to_v_ref_s(t[:-1], [15.0, 8.0, 0.0, 0.0, 2.0, 5.0, 9.0], v_ref[:-1]))
+    assert math.isnan(resume_to_v_ref_s(t, [15.0] * 8, [15.0] * 8))  # no resume

@@ -123,6 +123,23 @@ def test_edges_road_and_corridor():
         assert through_world.road_left_edge.points == pytest.approx(surroundings.road_left_edge.points)
 
 
+def test_lane_lines_are_the_lines_between_lanes_from_the_ego_on():
+    with SumoWorld(curvy_config()) as world:
+        builder, observation = builder_of(world), world.observation
+        lines = builder.build(observation, world.ego_state, target_lane=1).lane_lines
+        assert lines is not None and lines.offsets_m == pytest.approx((-1.75, 1.75), abs=0.01)  # not the road's edges
+        assert (lines.ego_half_length_m, lines.ego_half_width_m) == (0.5 * world.ego_length_m, 0.5 * world.ego_width_m)
+        # on the road's centre line, every metre from the ego past the way it covers in a horizon at 15 m/s
+        assert world.road.lateral_from_reference(*lines.points.T) == pytest.approx(np.zeros(len(lines.points)), abs=0.02)
+        assert np.linalg.norm(lines.points[0] - world.ego_state[:2]) < 0.1
+        assert np.diff(lines.points, axis=0) == pytest.approx(np.tile(lines.tangents[:1], (len(lines.points) - 1, 1)),
+                                                              abs=0.05)
+        assert (len(lines.points) - 1) * lines.spacing_m > 15.0 * MPPIConfig().horizon * world.dt_s
+        off = SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
+                                  SurroundingsConfig(lane_lines=False))
+        assert off.build(observation, world.ego_state, target_lane=1).lane_lines is None
+
+
 def test_the_time_gap_leader_is_the_nearest_vehicle_ahead_in_the_path_and_a_car_cutting_in():
     vehicles = (
         VehicleSpawn(id="leader", lane="center", pos_m=260.0, speed_mps=10.0, max_speed_mps=10.0),
