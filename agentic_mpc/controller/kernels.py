@@ -96,6 +96,7 @@ def rollout_costs(
     lane_line_table,
     lane_line_offsets,
     lane_line_params,
+    rims,
     work,
     costs,
 ):
@@ -266,6 +267,15 @@ def rollout_costs(
                     overlap = reach - abs(lateral - lane_line_offsets[b])
                     if overlap > 0.0:
                         costs[i] += weight * slow * overlap * overlap
+    for o in range(rims.shape[0]):  # J2: a plan that ends standing on the rim of a circle (or in it)
+        cx, cy, outer, depth, weight, standing = rims[o, 0], rims[o, 1], rims[o, 2], rims[o, 3], rims[o, 4], rims[o, 5]
+        for i in range(n_samples):
+            if v[i] < standing:
+                dx = x[i] - cx
+                dy = y[i] - cy
+                within = min(outer - np.sqrt(dx * dx + dy * dy), depth)
+                if within > 0.0:
+                    costs[i] += weight * (1.0 - v[i] / standing) * within * within
 
 
 def fused_costs(

@@ -117,6 +117,11 @@ class Blockage:
     lateral_offset_m: float = 0.0
 
 
+STANDING_PLAN_MPS = 1.0
+"""A plan that ends slower than this stands (J0's lane lines, J2's rims), and a car at least this fast moves: a car
+already standing is not charged for where it stands, which it can only leave by moving on."""
+
+
 @dataclass(frozen=True, slots=True)
 class LaneLines:
     """The lines between a road's lanes near the ego, for J0's "do not stand across a lane line": the road's
@@ -204,6 +209,8 @@ class FusedArrays(NamedTuple):
     lane_line_offsets: FloatArray  # (m,): the lines between lanes, left of the reference line, m
     lane_line_params: FloatArray  # (5,): spacing m, weight on the last stage, standing speed m/s, ego half length,
     # half width
+    rims: FloatArray  # (n, 6): circle x, y, outer radius (J2's + its rim), rim depth m, weight on the last stage,
+    # standing speed m/s
 
 
 @dataclass(slots=True)
@@ -213,6 +220,7 @@ class FusedTerms:
     horizon: int
     track: list[tuple[FloatArray, FloatArray, float, float]] = field(default_factory=list)
     circles: list[tuple[float, float, float, float]] = field(default_factory=list)
+    rims: list[tuple[float, float, float, float, float, float]] = field(default_factory=list)
     steer_sign: list[tuple[float, float]] = field(default_factory=list)
     lateral: list[tuple[float, float, float, FloatArray, FloatArray]] = field(default_factory=list)
     limits: tuple[float, ...] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -268,6 +276,7 @@ class FusedTerms:
             lane_line_table=lines,
             lane_line_offsets=_table((offsets,), len(offsets))[0],
             lane_line_params=_table((line_params,), 5)[0],
+            rims=table(self.rims, 6),
         )
 
 

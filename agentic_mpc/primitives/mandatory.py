@@ -40,6 +40,7 @@ import numpy as np
 from pydantic import Field
 
 from agentic_mpc.primitives.base import (
+    STANDING_PLAN_MPS,
     FloatArray,
     FusedTerms,
     LaneLines,
@@ -134,7 +135,7 @@ class Mandatory(Primitive):
         "lane_line_standing_mps) at the plan's end (a horizon's worth); 0: off"
     )
     lane_line_standing_mps: float = Field(
-        1.0, gt=0, description="a plan that ends slower than this stands: across a lane line, it pays"
+        STANDING_PLAN_MPS, gt=0, description="a plan that ends slower than this stands: across a lane line, it pays"
     )
 
     def prepare(self, context: StepContext) -> PreparedMandatory:
