@@ -65,6 +65,16 @@ def _sin_small(d: float) -> float:
     return d * (1.0 - d2 * (1.0 / 6.0 - d2 * (1.0 / 120.0 - d2 * (1.0 / 5040.0 - d2 * (1.0 / 362880.0)))))
 
 
+@numba.njit(inline="always", **_JIT)
+def _cover_r2(radius, body, half_length, half_width, cos_phi, sin_phi, hx, hy):
+    """A disc's squared radius with the ego turned against the cover's heading: its corner reaches further
+    (``MovingDisc.headings``)."""
+    cos_rel = cos_phi * hx + sin_phi * hy
+    sin_rel = sin_phi * hx - cos_phi * hy
+    r = max(radius, body + max(0.0, half_length * abs(sin_rel) - half_width * (1.0 - abs(cos_rel))))
+    return r * r
+
+
 @numba.njit(**_JIT)
 def rollout_costs(
     state,
@@ -97,10 +107,15 @@ def rollout_costs(
     lane_line_offsets,
     lane_line_params,
     rims,
+    neighbour_centres,
+    neighbour_tan,
+    neighbour_lane,
+    neighbour_lane_tan,
+    neighbour_params,
     work,
     costs,
 ):
-    """Total cost of every sample into ``costs`` (S,). ``z_delta``, ``z_ab``: (2L+1, S); ``work``: (9, S)."""
+    """Total cost of every sample into ``costs`` (S,). ``z_delta``, ``z_ab``: (2L+1, S); ``work``: (10, S)."""
     n_coef, n_samples = z_delta.shape
     horizon = basis.shape[1]
     dt, r_delta, kappa, inv_lr, w_a, w_b, w_v = (
@@ -212,16 +227,22 @@ def rollout_costs(
             hx, hy = disc_headings[o, k, 0], disc_headings[o, k, 1]
             radius, weight, body = disc_params[o, 0], disc_params[o, 1], disc_params[o, 2]
             half_length, half_width = disc_params[o, 3], disc_params[o, 4]
-            for i in range(n_samples):
-                dx = x[i] - cx
-                dy = y[i] - cy
-                d2 = dx * dx + dy * dy
-                # the ego turned against the cover's heading: its corner reaches further (MovingDisc.headings)
-                cos_rel = c[i] * hx + s[i] * hy
-                sin_rel = s[i] * hx - c[i] * hy
-                r = max(radius, body + max(0.0, half_length * abs(sin_rel) - half_width * (1.0 - abs(cos_rel))))
-                r2 = r * r
-                costs[i] += weight * (2.0 - d2 / r2) if d2 < r2 else 0.0
+            side, gap_now, inv_ramp = disc_params[o, 5], disc_params[o, 6], disc_params[o, 7]
+            if side == 0.0:  # the branch outside the sample loop: inside, it cost the disc pass 6 %
+                for i in range(n_samples):
+                    dx = x[i] - cx
+                    dy = y[i] - cy
+                    d2 = dx * dx + dy * dy
+                    r2 = _cover_r2(radius, body, half_length, half_width, c[i], s[i], hx, hy)
+                    costs[i] += weight * (2.0 - d2 / r2) if d2 < r2 else 0.0
+            else:  # a follower's (MovingDisc.follower_side): as far as the ego came closer to its line
+                for i in range(n_samples):
+                    dx = x[i] - cx
+                    dy = y[i] - cy
+                    d2 = dx * dx + dy * dy
+                    r2 = _cover_r2(radius, body, half_length, half_width, c[i], s[i], hx, hy)
+                    closer = min(1.0, max(0.0, (gap_now - side * (hy * dx - hx * dy)) * inv_ramp))
+                    costs[i] += weight * (2.0 - d2 / r2) * closer if d2 < r2 else 0.0
         for e in range(edge_ref.shape[0]):
             ex, ey, tx, ty = edge_ref[e, k, 0], edge_ref[e, k, 1], edge_tan[e, k, 0], edge_tan[e, k, 1]
             side, margin, weight = edge_params[e, 0], edge_params[e, 1], edge_params[e, 2]
@@ -236,6 +257,24 @@ def rollout_costs(
             for i in range(n_samples):
                 shortfall = max(0.0, min(gap_s * v[i] + d0, cap) - (tx * (lx - x[i]) + ty * (ly - y[i])))
                 costs[i] += gap_w * (knee * (2.0 * shortfall - knee) if shortfall > knee else shortfall * shortfall)
+        for o in range(neighbour_centres.shape[0]):  # J0's lane-entry gap (LaneNeighbour)
+            cx, cy = neighbour_centres[o, k, 0], neighbour_centres[o, k, 1]
+            tx, ty = neighbour_tan[o, k, 0], neighbour_tan[o, k, 1]
+            lx, ly = neighbour_lane[o, k, 0], neighbour_lane[o, k, 1]
+            nx, ny = neighbour_lane_tan[o, k, 0], neighbour_lane_tan[o, k, 1]
+            reach, contact, speed = neighbour_params[o, 0], neighbour_params[o, 1], neighbour_params[o, 2]
+            depth_now, gap_s, d0 = neighbour_params[o, 3], neighbour_params[o, 4], neighbour_params[o, 5]
+            weight, knee, inv_ramp = neighbour_params[o, 6], neighbour_params[o, 7], neighbour_params[o, 8]
+            for i in range(n_samples):
+                entered = reach - abs(nx * (y[i] - ly) - ny * (x[i] - lx)) - depth_now  # deeper in its lane than now
+                if entered > 0.0:
+                    along = tx * (x[i] - cx) + ty * (y[i] - cy)  # > 0: the ego ahead of it
+                    if along >= 0.0:
+                        shortfall = max(0.0, speed * gap_s + d0 - (along - contact))
+                    else:
+                        shortfall = max(0.0, v[i] * gap_s + d0 - (-along - contact))
+                    huber = knee * (2.0 * shortfall - knee) if shortfall > knee else shortfall * shortfall
+                    costs[i] += weight * min(1.0, entered * inv_ramp) * huber
     for o in range(queue_rooms.shape[0]):  # J0's room to pull out behind a blockage, on the plan's last state
         cx, cy, tx, ty = queue_rooms[o, 0], queue_rooms[o, 1], queue_rooms[o, 2], queue_rooms[o, 3]
         radius, turn_radius, cos_g, sin_g = queue_rooms[o, 4], queue_rooms[o, 5], queue_rooms[o, 6], queue_rooms[o, 7]

@@ -88,11 +88,11 @@ class FourierMPPI:
         self._compiled_noise_map = np.ascontiguousarray(self._noise_map if self._noise_map is not None else self._free_map)
         self.rng = np.random.default_rng(seed)
         self._params_packed = kernels.pack_params(params)
-        # Buffers allocated once: re-allocating (2L+1, S) and (9, S) arrays every step costs measurably.
+        # Buffers allocated once: re-allocating (2L+1, S) and (10, S) arrays every step costs measurably.
         self._z = np.empty((2, c.coefficients, c.samples))
         self._noise = np.empty((2, c.coefficients, c.samples // 2 if c.antithetic else c.samples))
         self._scaled = np.empty_like(self._noise)
-        self._work = np.empty((9, c.samples))
+        self._work = np.empty((10, c.samples))
         self._costs = np.empty(c.samples)
         self._weights = np.empty(c.samples)
         self.mean = np.zeros((2, c.coefficients))

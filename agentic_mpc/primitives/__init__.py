@@ -3,6 +3,7 @@
 from agentic_mpc.primitives.base import (
     Blockage,
     LaneLines,
+    LaneNeighbour,
     Leader,
     MovingDisc,
     Primitive,
@@ -25,6 +26,7 @@ __all__ = [
     "Circle",
     "FollowingDistance",
     "LaneLines",
+    "LaneNeighbour",
     "Leader",
     "Mandatory",
     "MovingDisc",

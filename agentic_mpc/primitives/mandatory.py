@@ -25,6 +25,8 @@
   slower than ``lane_line_standing_mps`` with the body over a line between lanes pays for how far the body reaches
   over it, squared, the more the slower it ends. Stand in a lane, or keep going until in one (docs/traffic.md: a
   yield that stopped half in the edge lane was struck by the ambulance it made way for);
+- a lane-entry gap (``Surroundings.lane_neighbours``, off unless ``lane_entry_gap_weight`` > 0): a plan whose body goes
+  deeper into a neighbour's lane than now keeps a time gap to it, ahead of it or behind it (:mod:`.lane_entry`);
 - smoothness of the planned inputs: a plan whose throttle/brake jumps from stage to stage costs more, so the
   weighted average of smooth plans is smooth (docs/cost-design.md).
 
@@ -33,17 +35,19 @@ Every term is a stage mean over the horizon (divided by H), so weights do not de
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import numpy as np
 from pydantic import Field
 
 from agentic_mpc.primitives.base import (
+    FOLLOWER_APPROACH_RAMP_M,
     STANDING_PLAN_MPS,
     FloatArray,
     FusedTerms,
     LaneLines,
+    LaneNeighbour,
     Leader,
     MovingDisc,
     Primitive,
@@ -51,6 +55,7 @@ from agentic_mpc.primitives.base import (
     StepContext,
     TrackingReference,
 )
+from agentic_mpc.primitives.lane_entry import lane_entry_cost, lane_entry_params
 
 TIME_GAP_WEIGHT = 10.0
 """Default ``time_gap_weight``, per m^2 per stage (tuned on the dense traffic scenario, seeds 100-119:
@@ -137,6 +142,15 @@ class Mandatory(Primitive):
     lane_line_standing_mps: float = Field(
         STANDING_PLAN_MPS, gt=0, description="a plan that ends slower than this stands: across a lane line, it pays"
     )
+    lane_entry_gap_weight: float = Field(
+        0.0, ge=0, description="per stage, on the lane-entry gap's shortfall in m (squared up to "
+        "time_gap_quadratic_m, then linear) while the body is deeper in a neighbour's lane than now "
+        "(primitives/lane_entry.py; needs surroundings.lane_neighbours); 0, the default: off"
+    )
+    lane_entry_time_gap_s: float = Field(
+        1.0, ge=0, le=10.0, description="the time gap a plan entering a lane keeps to the vehicle it merges ahead of "
+        "(at that vehicle's speed) or behind (at its own), plus standstill_gap_m"
+    )
 
     def prepare(self, context: StepContext) -> PreparedMandatory:
         s = context.surroundings
@@ -166,8 +180,14 @@ class Mandatory(Primitive):
         lines = s.lane_lines if moving and self.lane_line_standing_weight > 0.0 else None
         if lines is not None and (not lines.offsets_m or len(lines.points) == 0):
             lines = None
-        return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
-                                 starts, context.dt_s, rooms, standstill, lines)
+        # A follower's cover spares only a standing car (MovingDisc.follower_side); a moving one it pushes as any: a
+        # yield moving over into a truck's lane ahead of it, spared, drifted on into its path (docs/traffic.md).
+        discs = s.moving_discs
+        if float(context.state[3]) >= STANDING_PLAN_MPS and any(disc.follower_side for disc in discs):
+            discs = tuple(replace(disc, follower_side=0.0) if disc.follower_side else disc for disc in discs)
+        neighbours = s.lane_neighbours if self.lane_entry_gap_weight > 0.0 else ()
+        return PreparedMandatory(self, context.horizon, discs, tuple(edges), context.previous_input, leaders,
+                                 starts, context.dt_s, rooms, standstill, lines, neighbours)
 
 
 def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
@@ -222,6 +242,12 @@ class PreparedMandatory:
     standstill_gaps_m: tuple[float, ...] = ()
     """Per leader: d_0, or the room to pull out behind one that drives up to a blockage."""
     lane_lines: LaneLines | None = None
+    neighbours: tuple[LaneNeighbour, ...] = ()
+
+    def _lane_entry_args(self) -> tuple[float, float, float, float]:
+        p = self.spec
+        return (p.lane_entry_time_gap_s, p.standstill_gap_m, p.lane_entry_gap_weight / self.horizon,
+                p.time_gap_quadratic_m)
 
     def _lane_line_params(self) -> tuple[float, ...]:
         lines, p = self.lane_lines, self.spec
@@ -244,13 +270,22 @@ class PreparedMandatory:
             d2 = (r.x_m - disc.centres[:, 0:1]) ** 2 + (r.y_m - disc.centres[:, 1:2]) ** 2
             r2 = _turned_radius_m(disc, r) ** 2
             inside = d2 < r2
-            total += p.vehicle_clearance_weight / h * np.sum(inside * (2.0 - d2 / r2), axis=0)
+            if disc.follower_side == 0.0:
+                total += p.vehicle_clearance_weight / h * np.sum(inside * (2.0 - d2 / r2), axis=0)
+            else:  # a follower's: as far as the plan came closer to its line (MovingDisc.follower_side)
+                headings = _ALIGNED[h] if disc.headings is None else disc.headings
+                hx, hy = headings[:, 0:1], headings[:, 1:2]
+                gap = disc.follower_side * (hy * (r.x_m - disc.centres[:, 0:1]) - hx * (r.y_m - disc.centres[:, 1:2]))
+                closer = np.clip((disc.follower_gap_now_m - gap) / FOLLOWER_APPROACH_RAMP_M, 0.0, 1.0)
+                total += p.vehicle_clearance_weight / h * np.sum(inside * (2.0 - d2 / r2) * closer, axis=0)
         for edge, side in self.edges:
             ex, ey = edge.points[:, 0:1], edge.points[:, 1:2]
             tx, ty = edge.tangents[:, 0:1], edge.tangents[:, 1:2]
             e_lat = tx * (r.y_m - ey) - ty * (r.x_m - ex)
             violation = np.maximum(0.0, p.road_edge_margin_m + side * e_lat)
             total += p.road_edge_weight / h * np.sum(violation**2, axis=0)
+        for neighbour in self.neighbours:
+            total += lane_entry_cost(neighbour, r, *self._lane_entry_args())
         recovery = p.time_gap_recovery_mps * self.dt_s * np.arange(1, h + 1)[:, None]
         for leader, start, d0 in zip(self.leaders, self.gap_starts_m, self.standstill_gaps_m, strict=True):
             cx, cy = leader.contact_points[:, 0:1], leader.contact_points[:, 1:2]
@@ -320,7 +355,8 @@ class PreparedMandatory:
             else:
                 headings, extents = disc.headings, disc.ego_half_extents_m
             body = disc.radius_m if disc.body_radius_m is None else disc.body_radius_m
-            terms.discs.append((disc.centres, headings, disc.radius_m, p.vehicle_clearance_weight / h, body, *extents))
+            terms.discs.append((disc.centres, headings, disc.radius_m, p.vehicle_clearance_weight / h, body, *extents,
+                                disc.follower_side, disc.follower_gap_now_m, 1.0 / FOLLOWER_APPROACH_RAMP_M))
         for edge, side in self.edges:
             terms.edges.append((edge.points, edge.tangents, side, p.road_edge_margin_m, p.road_edge_weight / h))
         terms.time_gap = (p.time_gap_s, p.standstill_gap_m, p.time_gap_weight / h, p.time_gap_quadratic_m,
@@ -328,6 +364,9 @@ class PreparedMandatory:
         for leader, start, d0 in zip(self.leaders, self.gap_starts_m, self.standstill_gaps_m, strict=True):
             terms.leaders.append((leader.contact_points, leader.tangents, start, d0))
         terms.queue_rooms.extend(self.queue_rooms)
+        for neighbour in self.neighbours:
+            terms.neighbours.append((neighbour.centres, neighbour.tangents, neighbour.lane_points,
+                                     neighbour.lane_tangents, lane_entry_params(neighbour, *self._lane_entry_args())))
         if self.lane_lines is not None:
             table = np.ascontiguousarray(np.hstack((self.lane_lines.points, self.lane_lines.tangents)))
             terms.lane_lines = (table, self.lane_lines.offsets_m, self._lane_line_params())

@@ -82,6 +82,18 @@ class SurroundingsConfig(FrozenConfig):
         description="J0 sees the lines between lanes: a plan that ends standing across one pays (false: only "
         "other road users and the edges keep a standing ego anywhere)",
     )
+    lane_neighbours: bool = Field(
+        False, description="J0 gets the vehicles in the lanes beside the ego's that it may enter, for its lane-entry "
+        "gap (with Mandatory.lane_entry_gap_weight > 0; off by default: docs/traffic.md, 'Gap acceptance when "
+        "entering a lane')",
+    )
+    followers_charge_approach: bool = Field(
+        False,
+        description="while the ego stands, the discs of a vehicle closing in from behind in a lane beside charge a "
+        "plan only as far as it comes closer to that vehicle's line (false, the default: wherever it is inside them; "
+        "on, a car standing partly in a truck's lane no longer raced it, but a car waiting to merge stood longer: "
+        "docs/traffic.md, 'A follower passing a standing car')",
+    )
 
 
 class EgoStart(FrozenConfig):

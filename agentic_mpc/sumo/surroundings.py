@@ -3,41 +3,28 @@
 Prediction: each nearby vehicle keeps its speed along its own lane over the horizon (the brief's model;
 SUMO's vehicles do change lanes and brake, which the next step's observation then shows).
 
-Shape: the controller treats the ego as a point (its centre), so each other vehicle is inflated by the ego:
-the region the ego's centre must avoid is a (L + L_ego) x 2 half_w rectangle around the other vehicle's
-centre, covered by a row of discs along its heading (:func:`disc_cover`). A single disc big enough for the
-length would block the neighbouring lanes. Physically half_w = (W + W_ego)/2; for a vehicle on a lane the
-ego may enter it is at least half the lane width + ``lane_entry_margin_m``: without the sublane model SUMO
-moves the ego onto a lane as soon as its FRONT bumper crosses the lane boundary, and then reports a
-collision with anybody on that lane who overlaps it lengthwise, however far apart sideways (measured in
-Scenario 2: the ego's front 1.5 cm across the boundary next to a car's rear bumper). The margin covers the
-front bumper leading the centre sideways by L_ego/2 sin(heading) during a lane change. Lanes the ego may
-not enter (outside its corridor) keep the physical cover: the wider one would squeeze the ego in its lane.
+Shape: the controller treats the ego as a point (its centre), so each vehicle is inflated by the ego: the ego's
+centre must avoid a (L + L_ego) x 2 half_w rectangle round the vehicle's centre, covered by a row of discs along its
+heading (:func:`disc_cover`; one disc as long would block the next lanes). Physically half_w = (W + W_ego)/2; on a
+lane the ego may enter, at least half the lane width + ``lane_entry_margin_m``: without the sublane model SUMO moves
+the ego onto a lane once its FRONT bumper crosses the line, and reports a collision with anyone there who overlaps
+it lengthwise (Scenario 2: the front 1.5 cm across, beside a car's rear bumper); the margin covers the front leading
+the centre by L_ego/2 sin(heading). Lanes the ego may not enter keep the physical cover (a wider one squeezes it).
 
-Following distance: J0 only penalises being inside a disc, so the ego would tail a slower leader right at
-the disc's edge (measured: 1.2 m bumper to bumper for seconds, then swerving). The cover of a vehicle
-ahead in the ego's lane therefore reaches back by ``leader_standstill_gap_m + leader_time_headway_s * v``
-(about the distance SUMO's own drivers keep, Krauss tau = 1 s), but never over the ego: when the gap is
-already shorter (a car cut in), the cover ends just in front of the ego. A zone that suddenly contains the
-ego makes MPPI escape sideways out of its lane (measured), not brake. J0's time gap (below) now keeps the
-distance, along the path and with a gradient, and this extension is redundant and harmful: after a cut-in the
-capped zone sits 0.5 m in front of the ego at every step, and its graded disc cost pays the ego for moving
-sideways (dense traffic, seeds 100-119: lane excursions up to 1.9 m with it, at most 0.29 m with
-``leader_time_headway_s: 0``; docs/cost-design.md "Time gap"). It is therefore 0 by default.
+Following distance: the cover of a vehicle ahead in the ego's lane can reach back by ``leader_standstill_gap_m +
+leader_time_headway_s * v``, never over the ego. J0's time gap (below) keeps the distance along the path with a
+gradient, and the extension paid the ego for moving sideways after a cut-in (dense traffic, seeds 100-119: lane
+excursions up to 1.9 m with it, 0.29 m without; docs/cost-design.md "Time gap"), so it is 0 by default.
 
-Time gap (J0's ``Surroundings.leaders``, :meth:`SurroundingsBuilder.leaders`): the vehicle ahead in the ego's
-path is the nearest one ahead on the lane J1 tracks (else the ego's own lane), plus a nearer one from a
-neighbouring lane that cuts in: its box already overlaps the path lane, or will within
-``CUT_IN_LOOKAHEAD_S`` at its lateral speed (its heading against its lane's; SUMO reports lateral motion only
-with the sublane model, without it a lane change is a jump and the car counts from the step it lands).
-Each is predicted at constant speed along the path; J0 measures the gap along the path, so the ego cannot
-open it by moving sideways.
+Time gap (J0's ``Surroundings.leaders``, :meth:`SurroundingsBuilder.leaders`): the nearest vehicle ahead on the lane
+J1 tracks (else the ego's own), plus a nearer one from a lane beside whose box overlaps the path lane now or within
+``CUT_IN_LOOKAHEAD_S`` at its lateral speed (SUMO reports lateral motion only with the sublane model). Each is
+predicted at constant speed along the path, and J0 measures the gap along it: moving sideways does not open it.
 
-Which vehicles: those that can come within reach along the road during the horizon (a 1-D test at
-constant speeds, with slack for the ego's own speed changes), capped by ``range_ahead_m`` /
-``range_behind_m``. A vehicle directly behind the ego in its own lane is left out by default: keeping its
-distance is the follower's job (SUMO's car following does it), and predicting it at constant speed into
-the ego would make the ego flee forwards.
+Which vehicles: those that can come within reach along the road during the horizon (a 1-D test at constant speeds,
+with slack for the ego's own speed changes), capped by ``range_ahead_m`` / ``range_behind_m``. One directly behind
+in the ego's lane is left out by default: keeping its distance is its job (SUMO's car following does it), and
+predicted at constant speed into the ego it would make the ego flee forwards.
 """
 
 from __future__ import annotations
@@ -46,10 +33,11 @@ import math
 
 import numpy as np
 
-from agentic_mpc.primitives import LaneLines, Leader, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.primitives import LaneLines, LaneNeighbour, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.covers import DiscCover, disc_cover
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
+from agentic_mpc.sumo.neighbours import lane_neighbours
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.sumo.queues import (
     QUEUE_LEADER_WITHIN_M,
@@ -69,6 +57,8 @@ LANE_LINE_SPACING_M = 1.0
 LANE_LINE_SPARE_POINTS = 6
 """Rows beyond the way the ego covers at its speed in a horizon (a plan that speeds up ends a little further)."""
 MAX_LEADERS = 3
+FOLLOWER_CLOSING_MPS = 0.5
+"""A vehicle behind in a lane beside that closes in faster than this is a follower (``MovingDisc.follower_side``)."""
 
 
 class SurroundingsBuilder:
@@ -213,7 +203,10 @@ class SurroundingsBuilder:
                 per_lane.setdefault(vehicle.lane_index, []).append((vehicle, *relevance))
         discs: list[MovingDisc] = []
         if per_lane:
-            self._lane_discs(discs, per_lane, self.passing_lanes(observation, target_lane))
+            ego = observation.ego
+            ego_at = ((locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)[1], ego_speed)
+                      if self.config.followers_charge_approach else None)
+            self._lane_discs(discs, per_lane, self.passing_lanes(observation, target_lane), ego_at)
         for vehicle, cover, headway in off_road:
             direction = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
             centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * direction
@@ -225,31 +218,37 @@ class SurroundingsBuilder:
 
     def _lane_discs(self, discs: list[MovingDisc],
                     per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]],
-                    passing_lanes: frozenset[int] = frozenset()) -> None:
-        """The discs of the vehicles on lanes: one compiled call per lane (see :mod:`agentic_mpc.sumo.kernels`)
-        for all its discs, one row each; stage k of a disc is the lane point at lane_s + v * t_k, plus the
-        vehicle's lateral offset along the lane's normal, plus the disc's offset along the vehicle's heading (a car
-        40 deg across its lane in a rescue lane reaches into the next: docs/traffic.md).
-
-        Gap acceptance: a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the
-        ego in, braking at ``follower_yield_mps2`` (as its mean speed over the horizon). At constant speed no
-        gap in 3240 veh/h let the ego pull out from a standstill (docs/traffic.md)."""
+                    passing_lanes: frozenset[int] = frozenset(), ego_at: tuple[float, float] | None = None) -> None:
+        """The discs of the vehicles on lanes, one compiled call per lane (:mod:`agentic_mpc.sumo.kernels`): stage k of
+        a disc is the lane point at lane_s + v t_k, plus the vehicle's lateral offset, plus the disc's offset along its
+        heading (a car 40 deg across its lane in a rescue lane reaches into the next: docs/traffic.md). Gap acceptance:
+        a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the ego in, braking at
+        ``follower_yield_mps2`` (at constant speed no gap in 3240 veh/h let the ego pull out from a standstill). With
+        ``ego_at`` (the ego's offset left of the road's reference line, its speed), a vehicle behind in a lane beside
+        closing in faster than ``FOLLOWER_CLOSING_MPS`` is a follower (``MovingDisc.follower_side``)."""
         yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
         for index, lane_items in per_lane.items():
             rows: list[tuple[float, float, float, float, float]] = []  # (speed, lane_s, lateral, offset, heading)
             radii: list[tuple[float, float]] = []  # (the cover's, the bodies')
+            gates: list[tuple[float, float]] = []  # (follower side, its lateral gap now) or (0, 0)
             yielding = index in passing_lanes and yield_mps > 0.0
             for vehicle, cover, headway in lane_items:
                 body_radius = self._cover(vehicle, physical=True).radius_m  # what grows with the ego's angle
                 speed = vehicle.speed_mps
                 if yielding and vehicle.relation == "behind":
                     speed = max(0.0, speed - yield_mps)
+                gate = (0.0, 0.0)
+                if (ego_at is not None and vehicle.relative_lane and vehicle.offset_m < 0.0
+                        and vehicle.speed_mps > ego_at[1] + FOLLOWER_CLOSING_MPS):
+                    lateral = self._lane_centres[index] + vehicle.lateral_offset_m - ego_at[0]
+                    gate = (1.0 if lateral > 0.0 else -1.0, abs(lateral))
                 for offset in self._offsets(vehicle, cover, headway):
                     rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset, vehicle.heading_rad))
                     radii.append((cover.radius_m, body_radius))
+                    gates.append(gate)
             centres, headings = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
-            discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body)
-                         for c, (radius, body), h in zip(centres, radii, headings, strict=True))
+            discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body, *gate)
+                         for c, (radius, body), h, gate in zip(centres, radii, headings, gates, strict=True))
 
     def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:
         """The discs' offsets along the vehicle's heading; a leader's row extended backwards by ``headway``."""
@@ -375,9 +374,20 @@ class SurroundingsBuilder:
         if self.config.approach_decel_mps2 is not None and observation.ego.lane_index is not None:
             cap = approach_speed_cap_mps(self.queues(observation), observation.ego.lane_index,
                                          self.config.approach_decel_mps2, self.params.pull_out_distance_m)
+        neighbours = self._lane_neighbours(observation, target_lane) if self.config.lane_neighbours else ()
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
                             blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=cap,
-                            lane_lines=self.lane_lines(observation.ego.road_s_m, float(ego_state[3])))
+                            lane_lines=self.lane_lines(observation.ego.road_s_m, float(ego_state[3])),
+                            lane_neighbours=neighbours)
+
+    def _lane_neighbours(self, observation: Observation, target_lane: int | None) -> tuple[LaneNeighbour, ...]:
+        """J0's lane-entry gap's vehicles (:mod:`agentic_mpc.sumo.neighbours`): in J1's lane and the passing lanes."""
+        ego, passing = observation.ego, self.passing_lanes(observation, target_lane)
+        return lane_neighbours(
+            observation, self.road, self._steps, (self.ego_length_m, self.ego_width_m),
+            locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)[1],
+            lambda v: self.relevant(v, ego.speed_mps), passing | ({target_lane} - {None}), passing,
+            0.5 * self.config.follower_yield_mps2 * self._horizon_s)
 
     def lane_lines(self, road_s_m: float, speed_mps: float) -> LaneLines | None:
         """The lines between lanes from the ego to past where its plans can end (None with one lane or off)."""

@@ -44,10 +44,11 @@ def curvy_config(**update: object) -> SumoConfig:
     return base.replace(**update)
 
 
-def builder_of(world: SumoWorld) -> SurroundingsBuilder:
-    """The surroundings builder the run loop's controller gets (the default MPPI horizon)."""
+def builder_of(world: SumoWorld, **update: object) -> SurroundingsBuilder:
+    """The surroundings builder the run loop's controller gets (the default MPPI horizon), with ``update`` to its
+    surroundings config."""
     return SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
-                               world.config.surroundings)
+                               world.config.surroundings.model_copy(update=update))
 
 
 def test_constant_speed_prediction_matches_sumo_on_a_curve():
@@ -378,3 +379,62 @@ def test_coming_up_to_a_queue_j1_slows_to_a_speed_it_can_stop_from_with_room():
     with SumoWorld(config.replace(ego=EgoStart(lane="right", pos_m=220.0, speed_mps=15.0))) as world:
         surroundings = builder_of(world).build(world.observation, world.ego_state, target_lane=1)
         assert surroundings.reference_speed_cap_mps is None  # passing it in the lane beside (the detour's)
+
+
+def test_a_vehicle_from_behind_in_a_lane_beside_is_a_follower_charged_only_for_coming_closer():
+    vehicles = (
+        VehicleSpawn(id="behind_left", lane="left", pos_m=214.0, speed_mps=17.0),
+        VehicleSpawn(id="ahead_right", lane="right", pos_m=226.0, speed_mps=15.0),
+    )
+    with SumoWorld(curvy_config(vehicles=vehicles)) as world:
+        observation = world.observation
+        behind, ahead = observation.vehicle("behind_left"), observation.vehicle("ahead_right")
+        assert behind.offset_m < 0.0 < ahead.offset_m
+        builder = builder_of(world, followers_charge_approach=True)
+        discs = builder.discs(observation)
+        plain = builder_of(world).discs(observation)  # off by default
+        ego = observation.ego
+        ego_lateral = builder._lane_centres[ego.lane_index] + ego.lateral_offset_m
+    gap_left = builder._lane_centres[behind.lane_index] + behind.lateral_offset_m - ego_lateral
+    assert gap_left > 2.5
+    followers = [d for d in discs if d.follower_side != 0.0]
+    assert followers and {d.follower_side for d in followers} == {1.0}  # on the left
+    assert all(d.follower_gap_now_m == pytest.approx(gap_left, abs=0.01) for d in followers)
+    assert len(followers) < len(discs)  # the one ahead on the right is charged as before
+    assert len(plain) == len(discs) and {d.follower_side for d in plain} == {0.0}
+
+
+def test_lane_neighbours_are_the_nearest_behind_and_ahead_in_the_lane_the_ego_may_enter():
+    vehicles = (
+        VehicleSpawn(id="left_behind", lane="left", pos_m=207.0, speed_mps=15.5),
+        VehicleSpawn(id="right_behind", lane="right", pos_m=200.0, speed_mps=16.5),
+        VehicleSpawn(id="right_ahead", lane="right", pos_m=228.0, speed_mps=15.5),
+        VehicleSpawn(id="same_lane_ahead", lane="center", pos_m=240.0, speed_mps=14.0),
+    )
+    with SumoWorld(curvy_config(vehicles=vehicles)) as world:
+        observation = world.observation
+        builder = builder_of(world, lane_neighbours=True)
+        assert builder_of(world).build(observation, world.ego_state, target_lane=0).lane_neighbours == ()  # off
+        expected = {v.id: v for v in observation.traffic}
+        assert set(expected) == {v.id for v in vehicles}
+        lane_of = {name: expected[name].lane_index for name in expected}
+        # J1 on the lane to the left: only its car; on the lane to the right: both of its; on its own lane: none
+        to_left = builder.build(observation, world.ego_state, target_lane=lane_of["left_behind"]).lane_neighbours
+        to_right = builder.build(observation, world.ego_state, target_lane=lane_of["right_ahead"]).lane_neighbours
+        holding = builder.build(observation, world.ego_state, target_lane=observation.ego.lane_index).lane_neighbours
+        ego = observation.ego
+        lane_centre = {i: 0.5 * (left + right) for i, (left, right) in enumerate(world.road.lane_bounds_m)}
+        ego_lateral = lane_centre[ego.lane_index] + ego.lateral_offset_m
+    assert (len(to_left), len(to_right), len(holding)) == (1, 2, 0)
+    for name, neighbours in (("left_behind", to_left), ("right_behind", to_right), ("right_ahead", to_right)):
+        vehicle = expected[name]
+        neighbour = min(neighbours, key=lambda n: float(np.hypot(*(n.centres[0] - (vehicle.x_m, vehicle.y_m)))))
+        assert np.hypot(*(neighbour.centres[0] - (vehicle.x_m, vehicle.y_m))) < vehicle.speed_mps * 0.04 + 0.1
+        assert neighbour.speed_mps == pytest.approx(vehicle.speed_mps)
+        assert neighbour.contact_m == pytest.approx(0.5 * (vehicle.length_m + world.ego_length_m))
+        lane_width = world.road.lane_widths_m[vehicle.lane_index]
+        assert neighbour.lane_reach_m == pytest.approx(0.5 * (lane_width + world.ego_width_m))
+        # how far the ego's body is in that lane now: outside, by its distance to the lane's centre less the reach
+        distance = abs(lane_centre[vehicle.lane_index] - ego_lateral)
+        assert neighbour.entry_depth_now_m == pytest.approx(neighbour.lane_reach_m - distance, abs=0.02)
+        assert neighbour.entry_depth_now_m < 0.0
