@@ -203,9 +203,7 @@ class SurroundingsBuilder:
                 per_lane.setdefault(vehicle.lane_index, []).append((vehicle, *relevance))
         discs: list[MovingDisc] = []
         if per_lane:
-            ego = observation.ego
-            ego_at = ((locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)[1], ego_speed)
-                      if self.config.followers_charge_approach else None)
+            ego_at = (self._ego_lateral_m(observation), ego_speed) if self.config.followers_charge_approach else None
             self._lane_discs(discs, per_lane, self.passing_lanes(observation, target_lane), ego_at)
         for vehicle, cover, headway in off_road:
             direction = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
@@ -325,8 +323,7 @@ class SurroundingsBuilder:
         half = 0.5 * self.road.width_m
         if target_lane is None:
             return half, -half
-        ego = observation.ego
-        _, lateral = locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)
+        lateral = self._ego_lateral_m(observation)
         reach = 0.5 * self.ego_width_m
         left, right = self._lane_bounds[target_lane]
         for lane in self.passing_lanes(observation, target_lane):
@@ -382,12 +379,16 @@ class SurroundingsBuilder:
 
     def _lane_neighbours(self, observation: Observation, target_lane: int | None) -> tuple[LaneNeighbour, ...]:
         """J0's lane-entry gap's vehicles (:mod:`agentic_mpc.sumo.neighbours`): in J1's lane and the passing lanes."""
-        ego, passing = observation.ego, self.passing_lanes(observation, target_lane)
+        passing = self.passing_lanes(observation, target_lane)
         return lane_neighbours(
             observation, self.road, self._steps, (self.ego_length_m, self.ego_width_m),
-            locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)[1],
-            lambda v: self.relevant(v, ego.speed_mps), passing | ({target_lane} - {None}), passing,
-            0.5 * self.config.follower_yield_mps2 * self._horizon_s)
+            self._ego_lateral_m(observation), lambda v: self.relevant(v, observation.ego.speed_mps),
+            passing | ({target_lane} - {None}), passing, 0.5 * self.config.follower_yield_mps2 * self._horizon_s)
+
+    def _ego_lateral_m(self, observation: Observation) -> float:
+        """The ego's centre's offset left of the road's reference line (corridor, followers, lane neighbours)."""
+        ego = observation.ego
+        return locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)[1]
 
     def lane_lines(self, road_s_m: float, speed_mps: float) -> LaneLines | None:
         """The lines between lanes from the ego to past where its plans can end (None with one lane or off)."""
