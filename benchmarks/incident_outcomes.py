@@ -62,6 +62,24 @@ def run_outcome(run_dir: Path) -> dict:
     return row
 
 
+def bars_in_total(table: pd.DataFrame) -> str:
+    """The issue's bars over every run of ``table``, in one line (the closing notes' table rows)."""
+    over = table["stuck_s"].gt(STUCK_BAR_S)
+    parts = [f"{len(table)} runs"]
+    if "passed_all_within_60s" in table:
+        decided = table["passed_all_within_60s"].dropna()
+        parts.append(f"passed every stopped car within {PASS_WITHIN_S:.0f} s: "
+                     f"{int(decided.sum())}/{len(decided)} decided")
+    parts.append(f"stuck over {STUCK_BAR_S:.0f} s: {int(over.sum())} (longest {table['stuck_s'].max():.2f} s)")
+    parts.append(f"runs at fault: {int(table['collisions_ego_at_fault'].gt(0).sum())}")
+    if "resumed_to_v_ref" in table:
+        resumed = table["resumed_to_v_ref"].dropna()
+        parts.append(f"resumes back at v_ref: {int(resumed.sum())}/{len(resumed)}")
+    parts.append(f"accel RMS {table['accel_rms_mps2'].mean():.3f} m/s2, "
+                 f"jerk RMS {table['jerk_rms_mps3'].mean():.3f} m/s3")
+    return "all: " + "; ".join(parts)
+
+
 def main(batch_dirs: list[str], misses: bool = False) -> None:
     rows = [run_outcome(summary.parent) for d in batch_dirs for summary in Path(d).glob("runs/*/*/seed-*/summary.csv")]
     table = pd.DataFrame(rows)
@@ -78,6 +96,7 @@ def main(batch_dirs: list[str], misses: bool = False) -> None:
         aggregations["back_at_v_ref"] = ("resumed_to_v_ref", "mean")
         aggregations["resume_s_median"] = ("resume_to_v_ref_s", "median")
     print(table.groupby(["scenario", "variant"]).agg(**aggregations).round(3).to_string())
+    print("\n" + bars_in_total(table))
     if misses:
         missed = table["stuck_s"].gt(STUCK_BAR_S) | table["collisions_ego_at_fault"].gt(0)
         if "passed_all_within_60s" in table:

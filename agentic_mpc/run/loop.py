@@ -156,7 +156,8 @@ class RunLoop:
         specification, version = self.slot.snapshot()
         before, state = world.observation, world.ego_state
         tracking = specification.get("path_tracking")
-        surroundings = world.surroundings(self.controller.config.horizon, getattr(tracking, "path", None))
+        side = getattr(specification.get("preferred_steering_direction"), "direction", None)
+        surroundings = world.surroundings(self.controller.config.horizon, getattr(tracking, "path", None), side)
         output = self.controller.step(state, specification, surroundings)
         after = world.advance(output.delta, output.throttle, output.brake)
         outcome = StepOutcome(before, state, output, specification, version, len(surroundings.moving_discs),

@@ -64,6 +64,14 @@ class SurroundingsConfig(FrozenConfig):
         "the ego is past the obstacle (pulled back towards the queue, the ego stood wedged beside it, or in line "
         "behind it: docs/traffic.md)",
     )
+    detour_ahead_of_queues_m: float | None = Field(
+        80.0,
+        gt=0,
+        description="a queue with cars in it this close ahead in the lane J1 tracks, the ego driving in that lane: J1 "
+        "follows the lane beside on J3's preferred side (the other side if the road has no lane there) until the ego "
+        "is past, so that it merges while it moves, as SUMO's drivers change lanes ahead of a blockage, rather than "
+        "braking late from 15 m/s and swerving or standing nose to tail (docs/traffic.md; None: off)",
+    )
     approach_decel_mps2: float | None = Field(
         None,
         gt=0,

@@ -123,6 +123,12 @@ BESIDE_LONE_OBSTACLE_FROM_M = 20.0
 passes it in that lane. J2's swerve round a lone obstacle, as in the paper, takes the ego's centre over the lane
 line 6-9 m before it (the goldens); further back the ego is in that lane for its own reasons (after a yield)."""
 
+BESIDE_STANDING_MPS = 1.0
+"""Slower than this in the lane beside a lone stopped obstacle, nearer than ``BESIDE_LONE_OBSTACLE_FROM_M`` too, the
+ego passes it in that lane: it stands there for its own reasons (a yield), not in J2's swerve. J1 on the obstacle's
+lane pulled it across the line 13-17 m behind the obstacle: it stood there 27 s, or swerved back in front of the
+car behind it (seeds 3003, 3012)."""
+
 PULL_OUT_ASIDE_M = 0.25
 """Standing behind a lone stopped obstacle, the ego has started to pull out to the side its centre is this far to."""
 
@@ -133,18 +139,19 @@ class _Passing:
     followed_lane: int
     tracked_lane: int
     started_in_line: bool
-    """Started standing in the tracked lane behind the obstacle (it lasts there too, not only in the lane followed)."""
+    """Started in the tracked lane, standing behind the obstacle or driving towards its queue: it lasts there too."""
 
 
 class Detour:
     """The lane J1 follows while the ego passes a blockage of the lane J1 tracks.
 
-    It starts in two ways, and lasts, for that blockage's obstacle, until the obstacle is behind the ego or the
+    It starts in three ways, and lasts, for that blockage's obstacle, until the obstacle is behind the ego or the
     ego leaves the lanes it started in:
     - the ego's centre is in a lane beside the tracked one and a queue with cars in it stands ahead in the
       tracked lane within ``within_m``, or a lone stopped car at least ``BESIDE_LONE_OBSTACLE_FROM_M`` ahead
-      (nearer, J2 takes the ego round it, as in the paper; further back, pulled into line behind it the ego would
-      only have to pull out again, as after a yield to the edge lane). Pulled back towards a queue instead, the
+      (nearer, J2 takes the ego round it, as in the paper, unless the ego stands there, ``BESIDE_STANDING_MPS``;
+      further back, pulled into line behind it the ego would only have to pull out again, as after a yield to the
+      edge lane). Pulled back towards a queue instead, the
       ego stood wedged beside a car of it that stood to its side for 125 s (docs/traffic.md);
     - the ego stands in the tracked lane behind a lone stopped obstacle, as a queued car would (its front
       within ``QUEUE_LINK_M`` of the obstacle's rear, slower than ``QUEUE_STANDING_MPS``), already partly aside:
@@ -153,15 +160,20 @@ class Detour:
       missed, and the ego stood 8 m behind a lone stopped car with the lane beside it free for 23 s to the end,
       the cars behind in every lane waiting for it (docs/traffic.md). Behind a queue's cars, pulling out is the
       zipper's merge, which J0's gap acceptance decides (started there too, the ego cut into the next lane's
-      traffic at 2 m/s)."""
+      traffic at 2 m/s);
+    - with ``ahead_m``, the ego drives in the tracked lane towards a queue with cars in it (:meth:`_ahead`): it
+      merges while it moves. Seeing the queue only within its 2 s horizon, it braked from 15 m/s too late and
+      swerved into a car beside, or stood nose to tail with the queue's last car (docs/traffic.md)."""
 
-    def __init__(self) -> None:
+    def __init__(self, ahead_m: float | None = None) -> None:
         self._passing: _Passing | None = None
+        self.ahead_m = ahead_m
+        """With a value, a third start: :meth:`_ahead`."""
 
     def lane(self, observation: Observation, queues: tuple[Queue, ...], tracked_lane: int | None,
-             within_m: float, lane_centres_m: tuple[float, ...]) -> int | None:
+             within_m: float, lane_centres_m: tuple[float, ...], passing_side: str | None = None) -> int | None:
         """The lane to follow instead of ``tracked_lane``, or None to follow it. ``lane_centres_m``: each lane's
-        centre line, from the road's, positive to the left."""
+        centre line, from the road's, positive to the left; ``passing_side``: J3's preferred side, if any."""
         ego = observation.ego
         if tracked_lane is None or not ego.lane_role:
             self._passing = None
@@ -172,17 +184,41 @@ class Detour:
             obstacle = next((o for o in observation.obstacles if o.id == passing.obstacle_id), None)
             if obstacle is not None and obstacle.relation != "behind":
                 return passing.followed_lane
-        self._passing = self._beside(ego.lane_index, queues, tracked_lane, within_m) or self._in_queue(
-            observation, queues, tracked_lane, lane_centres_m)
+        self._passing = (self._beside(observation, queues, tracked_lane, within_m)
+                         or self._in_queue(observation, queues, tracked_lane, lane_centres_m)
+                         or self._ahead(observation, queues, tracked_lane, lane_centres_m, passing_side))
         return self._passing.followed_lane if self._passing is not None else None
 
-    @staticmethod
-    def _beside(ego_lane: int, queues: tuple[Queue, ...], tracked_lane: int, within_m: float) -> _Passing | None:
-        if abs(ego_lane - tracked_lane) != 1:
+    def _ahead(self, observation: Observation, queues: tuple[Queue, ...], tracked_lane: int,
+               lane_centres_m: tuple[float, ...], passing_side: str | None) -> _Passing | None:
+        """Driving in the tracked lane towards a queue with cars in it within ``ahead_m``: the lane beside on
+        ``passing_side`` (or the other side where the road has no lane there), before the ego has to stop."""
+        ego = observation.ego
+        if self.ahead_m is None or ego.lane_index != tracked_lane or ego.speed_mps < QUEUE_STANDING_MPS:
             return None
-        return next((_Passing(q.obstacle_id, ego_lane, tracked_lane, False) for q in queues
+        ahead = [q for q in queues
+                 if q.lane_index == tracked_lane and q.members and 0.0 <= q.tail_gap_m <= self.ahead_m]
+        if not ahead:
+            return None
+        queue = min(ahead, key=lambda q: q.tail_gap_m)
+        here = lane_centres_m[tracked_lane]
+        sides = (1.0, -1.0) if passing_side == "left" else (-1.0, 1.0)  # + is left; right first without a preference
+        for side in sides:
+            for lane in (tracked_lane - 1, tracked_lane + 1):
+                if 0 <= lane < len(lane_centres_m) and (lane_centres_m[lane] - here) * side > 0.0:
+                    return _Passing(queue.obstacle_id, lane, tracked_lane, True)
+        return None
+
+    @staticmethod
+    def _beside(observation: Observation, queues: tuple[Queue, ...], tracked_lane: int,
+                within_m: float) -> _Passing | None:
+        ego = observation.ego
+        if abs(ego.lane_index - tracked_lane) != 1:
+            return None
+        standing = ego.speed_mps < BESIDE_STANDING_MPS
+        return next((_Passing(q.obstacle_id, ego.lane_index, tracked_lane, False) for q in queues
                      if q.lane_index == tracked_lane and q.tail_gap_m <= within_m
-                     and (q.members or q.tail_gap_m >= BESIDE_LONE_OBSTACLE_FROM_M)), None)
+                     and (q.members or standing or q.tail_gap_m >= BESIDE_LONE_OBSTACLE_FROM_M)), None)
 
     @staticmethod
     def _in_queue(observation: Observation, queues: tuple[Queue, ...], tracked_lane: int,

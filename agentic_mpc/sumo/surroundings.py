@@ -93,7 +93,7 @@ class SurroundingsBuilder:
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
-        self._detour = Detour()
+        self._detour = Detour(self.config.detour_ahead_of_queues_m)
 
     def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
         """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""
@@ -344,14 +344,14 @@ class SurroundingsBuilder:
         lines = side_lines(self.road.reference_table, road_s_m, max(speed_mps, 0.0), self._steps, left, right)
         return TrackingReference(lines[0], lines[2]), TrackingReference(lines[1], lines[2])
 
-    def build(self, observation: Observation, ego_state: np.ndarray, target_lane: int | None = None) -> Surroundings:
-        """Surroundings for a control step from ``ego_state`` = [x, y, phi, v] (our model's state at the
-        observation's time; SUMO reports the ego where we put it). ``target_lane``: the road lane J1 tracks
-        (used by ``edges="corridor"``)."""
+    def build(self, observation: Observation, ego_state: np.ndarray, target_lane: int | None = None,
+              passing_side: str | None = None) -> Surroundings:
+        """Surroundings for a control step from ``ego_state`` = [x, y, phi, v] (SUMO reports the ego where we put
+        it); ``target_lane``: the lane J1 tracks (``edges="corridor"``); ``passing_side``: J3's preferred side."""
         shift, within = 0.0, self.config.passing_lanes_within_m
         if self.config.detour_beside_queues and within is not None:
             detour = self._detour.lane(observation, self.queues(observation), target_lane, within,
-                                       self._lane_centres)
+                                       self._lane_centres, passing_side)
             if detour is not None:  # J1's reference, the corridor, the leaders: of the lane the ego passes in
                 shift = self._lane_centres[detour] - self._lane_centres[target_lane]
                 target_lane = detour

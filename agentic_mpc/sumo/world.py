@@ -308,14 +308,15 @@ class SumoWorld:
             for circle in obstacle_circles(obstacle, self.ego_length_m, self.ego_width_m)
         )
 
-    def surroundings(self, horizon: int, tracked_path: LanePath | None) -> Surroundings:
+    def surroundings(self, horizon: int, tracked_path: LanePath | None,
+                     passing_side: str | None = None) -> Surroundings:
         builder = self._surroundings.get(horizon)
         if builder is None:
             builder = self._surroundings[horizon] = SurroundingsBuilder(
                 self.road, self.ego_length_m, self.ego_width_m, horizon, self.dt_s, self.config.surroundings,
                 self.params,
             )
-        return builder.build(self.observation, self._state, self.lane_index_of(tracked_path))
+        return builder.build(self.observation, self._state, self.lane_index_of(tracked_path), passing_side)
 
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
         if not self.running:

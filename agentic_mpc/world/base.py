@@ -7,7 +7,7 @@ libsumo) and :class:`agentic_mpc.world.plain.PlainWorld` (plain Python, no traff
 
 One control step of the loop at time t::
 
-    surroundings = world.surroundings(horizon, tracked_path)     # what J0 must keep clear of
+    surroundings = world.surroundings(horizon, tracked_path, side)  # what J0 must keep clear of
     inputs = controller.step(world.ego_state, specification, surroundings)
     world.advance(inputs.delta, inputs.throttle, inputs.brake)    # the plant moves, the world reacts: t + dt
     world.observation                                             # what is seen at t + dt
@@ -64,8 +64,10 @@ class World(Protocol):
     def obstacle_circles(self, only_in_j2: bool = False) -> tuple[Circle, ...]:
         """J2's discs around the world's static obstacles (only those marked for J2 if asked)."""
 
-    def surroundings(self, horizon: int, tracked_path: LanePath | None) -> Surroundings:
-        """The controller's surroundings over ``horizon`` steps from now."""
+    def surroundings(self, horizon: int, tracked_path: LanePath | None,
+                     passing_side: str | None = None) -> Surroundings:
+        """The controller's surroundings over ``horizon`` steps from now; ``passing_side``: J3's preferred side
+        ("left", "right"), where the world chooses a lane to pass a blockage in."""
 
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
         """Apply the ego's inputs for one control step; returns the new observation. Raises WorldError."""

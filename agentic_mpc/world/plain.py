@@ -111,7 +111,8 @@ class PlainWorld:
     def signal_intention(self, planned_xy: np.ndarray) -> None:
         """Its movers keep their speeds whatever the ego does: nobody to tell."""
 
-    def surroundings(self, horizon: int, tracked_path: LanePath | None) -> Surroundings:
+    def surroundings(self, horizon: int, tracked_path: LanePath | None,
+                     passing_side: str | None = None) -> Surroundings:
         x = float(self._state[0])
         k = np.arange(1, horizon + 1)
         discs = tuple(

@@ -322,6 +322,28 @@ def test_a_killed_batch_loses_no_finished_run(tmp_path):
     assert [(r["seed"], r["status"]) for r in read_summary(out)] == [(str(s), "ok") for s in range(5)]
 
 
+def test_a_fork_server_that_dies_at_its_warm_up_costs_speed_not_runs(tmp_path):
+    """The warm-up module raises (as an invalid configuration default did): the server dies before the first
+    fork. The batch says so once and starts its runs in fresh interpreters; every run is recorded."""
+    (tmp_path / "broken_warm_up.py").write_text("raise ValueError('a default that does not validate')\n")
+    file, out = scenario_yaml(tmp_path, "plain"), tmp_path / "out"
+    script = (
+        "from agentic_mpc.batch import launch, BatchSpec, run_batch\n"
+        "launch.WARM_START_MODULE = 'broken_warm_up'\n"
+        f"spec = BatchSpec(files=({str(file)!r},), trials=3, workers=2, out_dir={str(out)!r})\n"
+        f"result = run_batch(spec, runner='{RUNNERS}:quick_run', progress=False)\n"
+        "print([row['status'] for row in result.rows])\n"
+    )
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(REPO)))}  # the server's too
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=REPO, timeout=120,
+                          env=environment)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "['ok', 'ok', 'ok']"
+    assert done.stderr.count("the fork server stopped") == 1
+    assert "Traceback" not in done.stderr
+    assert "import broken_warm_up" in done.stderr
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Dask
 

@@ -243,7 +243,9 @@ def test_a_leader_driving_up_to_a_queue_gets_room_behind_it_only_in_the_paths_la
 def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_in():
     """The ego in the right lane, a queue (a stopped car and two behind it) ahead in the centre lane that J1
     tracks: J1's reference moves to the right lane's centre (3.5 m right), until the stopped car is behind the
-    ego; switched off, or with the ego in the centre lane, it stays on the tracked lane."""
+    ego; switched off, it stays on the tracked lane. With the ego driving in the centre lane towards the queue it
+    moves there too (the detour ahead of queues; right, J3 not given), unless that is switched off; with J3 on the
+    left, to the left lane."""
     from agentic_mpc.sumo.config import StaticObstacle
 
     obstacle = StaticObstacle(id="stopped", lane="center", pos_m=280.0)
@@ -267,13 +269,19 @@ def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_i
                                   SurroundingsConfig(edges="corridor", detour_beside_queues=False))
         assert off.build(observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
     with SumoWorld(beside.replace(ego=EgoStart(lane="center", pos_m=220.0, speed_mps=15.0))) as world:
-        assert builder_of(world).build(world.observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
+        assert builder_of(world).build(world.observation, world.ego_state, target_lane=1).reference_shift_m == \
+            pytest.approx(-3.5, abs=0.01)
+        assert builder_of(world).build(world.observation, world.ego_state, 1, "left").reference_shift_m == \
+            pytest.approx(3.5, abs=0.01)
+        in_line = builder_of(world, detour_ahead_of_queues_m=None)
+        assert in_line.build(world.observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
 
 
 def test_in_the_lane_beside_a_lone_stopped_car_well_ahead_j1_follows_that_lane():
     """The ego in the right lane (as after a yield), a lone stopped car 55 m ahead in the centre lane J1 tracks:
     J1 follows the right lane until the car is behind. Within 20 m of it, where J2's swerve round it takes the
-    ego's centre over the line (as in the paper), J1 stays on the tracked lane."""
+    ego's centre over the line (as in the paper), J1 stays on the tracked lane, unless the ego stands there (as
+    after a yield beside the stopped car)."""
     from agentic_mpc.sumo.config import StaticObstacle
     from agentic_mpc.sumo.queues import BESIDE_LONE_OBSTACLE_FROM_M
 
@@ -292,6 +300,48 @@ def test_in_the_lane_beside_a_lone_stopped_car_well_ahead_j1_follows_that_lane()
         near = dataclasses.replace(observation, obstacles=tuple(
             dataclasses.replace(o, gap_m=BESIDE_LONE_OBSTACLE_FROM_M - 1.0) for o in observation.obstacles))
         assert builder_of(world).build(near, world.ego_state, target_lane=1).reference_shift_m == 0.0
+        standing = dataclasses.replace(near, ego=dataclasses.replace(near.ego, speed_mps=0.5))
+        assert builder_of(world).build(standing, world.ego_state, target_lane=1).reference_shift_m == pytest.approx(
+            -3.5, abs=0.01)
+
+
+def test_driving_towards_a_queue_j1_follows_the_lane_beside_on_the_preferred_side():
+    """``detour_ahead_of_queues_m``: the ego drives in the centre lane J1 tracks towards a stopped car with a car
+    queued behind it, 55 m ahead: J1 follows the lane beside on J3's side (right without a preference) until the
+    car is behind, also while the ego is still in the centre lane. Not towards a lone stopped car (J2's, as in
+    the paper), farther than the distance, standing (the in-line start's), or with the switch off."""
+    from agentic_mpc.sumo.config import StaticObstacle
+    from agentic_mpc.sumo.queues import Detour
+
+    config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=280.0),),
+                          ego=EgoStart(lane="center", pos_m=220.0, speed_mps=10.0),
+                          surroundings=SurroundingsConfig(edges="corridor"))
+    with SumoWorld(config) as world:
+        observation, centres = world.observation, (-3.5, 0.0, 3.5)
+        (lone,) = builder_of(world).queues(observation)
+        queue = dataclasses.replace(lone, members=("queued",))
+        assert 50.0 < queue.tail_gap_m < 60.0
+
+        def lane(detour: Detour, side: str | None = None, seen=observation, queues=(queue,)) -> int | None:
+            return detour.lane(seen, queues, 1, 80.0, centres, side)
+
+        assert lane(Detour(80.0), "left") == 2 and lane(Detour(80.0), "right") == 0 and lane(Detour(80.0)) == 0
+        detour = Detour(80.0)
+        assert lane(detour, "left") == 2
+        crossing = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lane_index=2))
+        assert lane(detour, "left", crossing) == 2 and lane(detour, "left") == 2  # it lasts in both lanes
+        past = dataclasses.replace(observation, obstacles=tuple(dataclasses.replace(o, relation="behind")
+                                                                for o in observation.obstacles))
+        assert lane(detour, "left", past, queues=()) is None  # a queue of an obstacle behind is none
+        assert lane(Detour(80.0), "left", queues=(lone,)) is None
+        assert lane(Detour(50.0), "left") is None
+        assert lane(Detour(None), "left") is None
+        standing = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, speed_mps=0.0))
+        assert lane(Detour(80.0), "left", standing) is None
+        # From the edge lane the only lane beside is taken, whatever the preference.
+        at_edge = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lane_index=0))
+        edge_queue = dataclasses.replace(queue, lane_index=0)
+        assert Detour(80.0).lane(at_edge, (edge_queue,), 0, 80.0, centres, "right") == 1
 
 
 def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_on_that_side():
