@@ -70,7 +70,8 @@ class SurroundingsConfig(FrozenConfig):
         description="a queue with cars in it this close ahead in the lane J1 tracks, the ego driving in that lane: J1 "
         "follows the lane beside on J3's preferred side (the other side if the road has no lane there) until the ego "
         "is past, so that it merges while it moves, as SUMO's drivers change lanes ahead of a blockage, rather than "
-        "braking late from 15 m/s and swerving or standing nose to tail (docs/traffic.md; None: off)",
+        "braking late from 15 m/s and swerving or standing nose to tail; not while an emergency vehicle is this close "
+        "(docs/traffic.md; None: off)",
     )
     approach_decel_mps2: float | None = Field(
         None,

@@ -196,6 +196,8 @@ class Detour:
         ego = observation.ego
         if self.ahead_m is None or ego.lane_index != tracked_lane or ego.speed_mps < QUEUE_STANDING_MPS:
             return None
+        if any(e.distance_m <= self.ahead_m for e in observation.emergency_vehicles):
+            return None  # its rescue corridor passes the queue: beside it, the ego stood in its way (docs/traffic.md)
         ahead = [q for q in queues
                  if q.lane_index == tracked_lane and q.members and 0.0 <= q.tail_gap_m <= self.ahead_m]
         if not ahead:

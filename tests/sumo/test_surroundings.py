@@ -309,7 +309,8 @@ def test_driving_towards_a_queue_j1_follows_the_lane_beside_on_the_preferred_sid
     """``detour_ahead_of_queues_m``: the ego drives in the centre lane J1 tracks towards a stopped car with a car
     queued behind it, 55 m ahead: J1 follows the lane beside on J3's side (right without a preference) until the
     car is behind, also while the ego is still in the centre lane. Not towards a lone stopped car (J2's, as in
-    the paper), farther than the distance, standing (the in-line start's), or with the switch off."""
+    the paper), farther than the distance, standing (the in-line start's), with an emergency vehicle within the
+    distance, or with the switch off."""
     from agentic_mpc.sumo.config import StaticObstacle
     from agentic_mpc.sumo.queues import Detour
 
@@ -342,6 +343,15 @@ def test_driving_towards_a_queue_j1_follows_the_lane_beside_on_the_preferred_sid
         at_edge = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lane_index=0))
         edge_queue = dataclasses.replace(queue, lane_index=0)
         assert Detour(80.0).lane(at_edge, (edge_queue,), 0, 80.0, centres, "right") == 1
+    # An emergency vehicle within the distance: its rescue corridor passes the queue, the ego stays in line.
+    with SumoWorld(config.replace(vehicles=(VehicleSpawn(id="ambulance", type_id="ambulance", lane="center",
+                                                         pos_m=180.0, speed_mps=10.0),))) as world:
+        observation = world.observation
+        (ambulance,) = observation.emergency_vehicles
+        assert ambulance.relation == "behind" and ambulance.distance_m < 80.0
+        assert Detour(80.0).lane(observation, (queue,), 1, 80.0, centres, "left") is None
+        alone = dataclasses.replace(observation, emergency_vehicles=())
+        assert Detour(80.0).lane(alone, (queue,), 1, 80.0, centres, "left") == 2
 
 
 def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_on_that_side():
