@@ -16,8 +16,9 @@
   than that disc's radius aside) pays for ending closer than the distance the model needs to pull out the
   rest of the way round it, worked out from its geometry (``VehicleParams.pull_out_distance_m`` at
   ``queue_room_steer`` of full lock: about 10 m from straight behind, less from partly aside, so that pulling
-  out costs nothing on the way), plus the distance to stop from its final speed at ``queue_room_decel_mps2``. So the
-  ego either pulls out or comes in at a speed it can stop from with room; a plan that ends beside the blockage
+  out costs nothing on the way; for a car standing inside that room, at ``queue_room_standing_steer``: only plans
+  near full lock get out from there), plus the distance to stop from its final speed at ``queue_room_decel_mps2``. So
+  the ego either pulls out or comes in at a speed it can stop from with room; a plan that ends beside the blockage
   or past its rear disc pays nothing (docs/traffic.md: without it the ego stood 0.5 m behind a stopped car,
   from where no path of the model gets round, for 90 s; charged at every stage, the room made braking in lane
   cheaper than pulling out; inside the disc is not past it: "Leaving a standstill");
@@ -35,6 +36,7 @@ Every term is a stage mean over the horizon (divided by H), so weights do not de
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
@@ -44,6 +46,7 @@ from pydantic import Field
 from agentic_mpc.primitives.base import (
     FOLLOWER_APPROACH_RAMP_M,
     STANDING_PLAN_MPS,
+    Blockage,
     FloatArray,
     FusedTerms,
     LaneLines,
@@ -131,6 +134,12 @@ class Mandatory(Primitive):
     queue_room_steer: float = Field(
         0.5, gt=0, le=1.0, description="share of full steering lock the room to pull out is worked out for"
     )
+    queue_room_standing_steer: float | None = Field(
+        1.0, gt=0, le=1.0, description="a car standing inside the room gets the room worked out for this share of full "
+        "lock: from there only plans near full lock get out, and each on the way paid more than standing (None: "
+        "queue_room_steer throughout; docs/traffic.md, 'Gap acceptance beyond the horizon, and standing inside the "
+        "room to pull out')"
+    )
     queue_room_decel_mps2: float = Field(
         4.0, gt=0, description="the wanted room grows by the distance to stop at this deceleration, v^2 / (2 b)"
     )
@@ -169,9 +178,14 @@ class Mandatory(Primitive):
         )
         starts = tuple(max(d0, _gap_along_path_m(leader, x_m, y_m)) for leader, d0 in zip(leaders, standstill))
         turn = context.params.pull_out_turn(self.queue_room_steer)
+        # Standing inside that room, a plan gets out only near full lock and every plan on the way paid more than
+        # standing (3804, 3808 stood 20-110 s behind the curve's car): there, the room for queue_room_standing_steer.
+        standing = self.queue_room_standing_steer is not None and context.state[3] < STANDING_PLAN_MPS
+        standing_turn = context.params.pull_out_turn(self.queue_room_standing_steer) if standing else None
         rooms = tuple(
-            (b.x_m, b.y_m, b.tangent_x, b.tangent_y, b.radius_m, *turn, 0.5 / self.queue_room_decel_mps2,
-             self.queue_room_weight, b.lateral_offset_m)
+            (b.x_m, b.y_m, b.tangent_x, b.tangent_y, b.radius_m,
+             *(standing_turn if standing_turn and _inside_room(b, x_m, y_m, *turn) else turn),
+             0.5 / self.queue_room_decel_mps2, self.queue_room_weight, b.lateral_offset_m)
             for b in (s.blockages if self.queue_room_weight > 0.0 else ())
         )
         # Only for a car that moves: one already standing across a line is not charged for what it cannot leave
@@ -188,6 +202,16 @@ class Mandatory(Primitive):
         neighbours = s.lane_neighbours if self.lane_entry_gap_weight > 0.0 else ()
         return PreparedMandatory(self, context.horizon, discs, tuple(edges), context.previous_input, leaders,
                                  starts, context.dt_s, rooms, standstill, lines, neighbours)
+
+
+def _inside_room(b: Blockage, x_m: float, y_m: float, turn_radius: float, cos_g: float, sin_g: float) -> bool:
+    """Whether a car standing at (x_m, y_m) is closer to ``b`` than the room to pull out with that turn."""
+    behind = b.tangent_x * (b.x_m - x_m) + b.tangent_y * (b.y_m - y_m)
+    beside = b.tangent_x * (b.y_m - y_m) - b.tangent_y * (b.x_m - x_m)
+    if behind <= -b.radius_m or abs(beside) >= b.radius_m:
+        return False
+    cos_end = cos_g - (b.radius_m - min(abs(beside + b.lateral_offset_m), b.radius_m)) / turn_radius
+    return turn_radius * (math.sqrt(1.0 - cos_end * cos_end) - sin_g) > behind - b.radius_m
 
 
 def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:

@@ -56,6 +56,13 @@ class SurroundingsConfig(FrozenConfig):
         description="a follower in a lane beside a blockage is predicted to brake this hard to let the ego in (gap "
         "acceptance for the zipper; 0: it keeps its speed)",
     )
+    follower_yield_merge_accel_mps2: float | None = Field(
+        2.0,
+        ge=0,
+        description="a follower is predicted to brake to let the ego in only if it can, braking at follower_yield_mps2 "
+        "while the ego speeds up at this rate (else it keeps its speed: 3612 pulled out at 1 m/s in front of a car at "
+        "14 m/s 16 m back, and side-swiped it); None: every follower beside a blockage is predicted to yield",
+    )
     detour_beside_queues: bool = Field(
         True,
         description="once the ego's centre is in the lane beside a queue that blocks the lane J1 tracks (or beside a "

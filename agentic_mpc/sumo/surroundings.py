@@ -37,7 +37,7 @@ from agentic_mpc.primitives import LaneLines, LaneNeighbour, Leader, MovingDisc,
 from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.covers import DiscCover, disc_cover
 from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
-from agentic_mpc.sumo.neighbours import lane_neighbours
+from agentic_mpc.sumo.neighbours import can_let_in, lane_neighbours
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.sumo.queues import (
     QUEUE_LEADER_WITHIN_M,
@@ -204,7 +204,7 @@ class SurroundingsBuilder:
         discs: list[MovingDisc] = []
         if per_lane:
             ego_at = (self._ego_lateral_m(observation), ego_speed) if self.config.followers_charge_approach else None
-            self._lane_discs(discs, per_lane, self.passing_lanes(observation, target_lane), ego_at)
+            self._lane_discs(discs, per_lane, ego_speed, self.passing_lanes(observation, target_lane), ego_at)
         for vehicle, cover, headway in off_road:
             direction = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
             centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * direction
@@ -215,15 +215,16 @@ class SurroundingsBuilder:
         return tuple(discs)
 
     def _lane_discs(self, discs: list[MovingDisc],
-                    per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]],
+                    per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]], ego_speed_mps: float,
                     passing_lanes: frozenset[int] = frozenset(), ego_at: tuple[float, float] | None = None) -> None:
         """The discs of the vehicles on lanes, one compiled call per lane (:mod:`agentic_mpc.sumo.kernels`): stage k of
         a disc is the lane point at lane_s + v t_k, plus the vehicle's lateral offset, plus the disc's offset along its
         heading (a car 40 deg across its lane in a rescue lane reaches into the next: docs/traffic.md). Gap acceptance:
         a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the ego in, braking at
-        ``follower_yield_mps2`` (at constant speed no gap in 3240 veh/h let the ego pull out from a standstill). With
-        ``ego_at`` (the ego's offset left of the road's reference line, its speed), a vehicle behind in a lane beside
-        closing in faster than ``FOLLOWER_CLOSING_MPS`` is a follower (``MovingDisc.follower_side``)."""
+        ``follower_yield_mps2`` (at constant speed no gap in 3240 veh/h let the ego pull out from a standstill), if
+        it can (:func:`~agentic_mpc.sumo.neighbours.can_let_in`). With ``ego_at`` (the ego's offset left of the
+        road's reference line, its speed), a vehicle behind in a lane beside closing in faster than
+        ``FOLLOWER_CLOSING_MPS`` is a follower (``MovingDisc.follower_side``)."""
         yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
         for index, lane_items in per_lane.items():
             rows: list[tuple[float, float, float, float, float]] = []  # (speed, lane_s, lateral, offset, heading)
@@ -233,7 +234,7 @@ class SurroundingsBuilder:
             for vehicle, cover, headway in lane_items:
                 body_radius = self._cover(vehicle, physical=True).radius_m  # what grows with the ego's angle
                 speed = vehicle.speed_mps
-                if yielding and vehicle.relation == "behind":
+                if yielding and vehicle.relation == "behind" and can_let_in(vehicle, ego_speed_mps, self.config):
                     speed = max(0.0, speed - yield_mps)
                 gate = (0.0, 0.0)
                 if (ego_at is not None and vehicle.relative_lane and vehicle.offset_m < 0.0
@@ -383,7 +384,8 @@ class SurroundingsBuilder:
         return lane_neighbours(
             observation, self.road, self._steps, (self.ego_length_m, self.ego_width_m),
             self._ego_lateral_m(observation), lambda v: self.relevant(v, observation.ego.speed_mps),
-            passing | ({target_lane} - {None}), passing, 0.5 * self.config.follower_yield_mps2 * self._horizon_s)
+            passing | ({target_lane} - {None}), passing, 0.5 * self.config.follower_yield_mps2 * self._horizon_s,
+            lambda v: can_let_in(v, observation.ego.speed_mps, self.config))
 
     def _ego_lateral_m(self, observation: Observation) -> float:
         """The ego's centre's offset left of the road's reference line (corridor, followers, lane neighbours)."""

@@ -50,8 +50,19 @@ def _standing_costs(distance_m: float, lateral_m: float = 0.0, v_mps: float = 0.
 def test_room_is_free_beyond_the_pull_out_distance_and_charged_inside_it():
     room = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5)
     assert _standing_costs(room + 0.1) == 0.0
-    assert _standing_costs(room - 1.0) == pytest.approx(20.0 * 1.0, rel=1e-6)  # weight x shortfall^2
-    assert _standing_costs(0.5) == pytest.approx(20.0 * 2.0 * (2.0 * (room - 0.5) - 2.0), rel=1e-6)  # Huber
+    # Rolling 2 s at 1 m/s from 1.5 m beyond the room, the plan ends 0.5 m inside it, plus 1 / (2 x 4) m to stop.
+    assert _standing_costs(room + 1.5, v_mps=1.0) == pytest.approx(20.0 * (0.5 + 1.0 / 8.0) ** 2, rel=1e-2)
+
+
+def test_standing_inside_the_room_only_the_full_locks_room_is_charged():
+    """Inside the room worked out for half lock, a standing car gets out only near full lock, and every plan on the
+    way ended closer than the half lock's room: it paid more than standing, and the ego stood 20-110 s behind the
+    curve's stopped car (seeds 3804, 3808). Standing there, the room is the full lock's."""
+    room, full = PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 0.5), PAPER_PARAMS.pull_out_distance_m(RADIUS_M, 1.0)
+    assert full < room - 4.0
+    assert _standing_costs(room - 1.0) == 0.0
+    assert _standing_costs(full - 1.0) == pytest.approx(20.0 * 1.0, rel=1e-6)  # weight x shortfall^2
+    assert _standing_costs(0.5) == pytest.approx(20.0 * 2.0 * (2.0 * (full - 0.5) - 2.0), rel=1e-6)  # Huber
 
 
 def test_room_shrinks_when_partly_aside_and_vanishes_beside():

@@ -19,13 +19,17 @@ def _run(tmp_path, standstill_winner: bool) -> tuple[dict[str, str], dict[str, d
     scenario = load_scenario(scenario_path("incident_in_traffic")).variant("ambulance_left").with_seed(1808)
     outputs = scenario.outputs.model_copy(update={"replay": False, "plot": False})
     controller = scenario.controller.model_copy(update={"standstill_winner": standstill_winner})
-    # J0's lane lines and the detour ahead of queues off, as when the stand was recorded: with either this seed
-    # drives otherwise and passes the curve's car without standing there
+    # J0's lane lines, the detour ahead of queues and the gate on followers' yielding off, as when the stand was
+    # recorded: with any of them this seed drives otherwise and passes the curve's car without standing there
     surroundings = scenario.world.surroundings.model_copy(update={"lane_lines": False,
-                                                                  "detour_ahead_of_queues_m": None})
+                                                                  "detour_ahead_of_queues_m": None,
+                                                                  "follower_yield_merge_accel_mps2": None})
     world = scenario.world.model_copy(update={"surroundings": surroundings})
+    # and standing inside the room, the room worked out for half lock as then: the full lock's takes it out too
+    mandatory = {**scenario.specification.mandatory, "queue_room_standing_steer": None}
+    specification = scenario.specification.model_copy(update={"mandatory": mandatory})
     scenario = scenario.model_copy(update={"duration_s": 185.0, "outputs": outputs, "controller": controller,
-                                           "world": world})
+                                           "world": world, "specification": specification})
     out = tmp_path / str(standstill_winner)
     run_scenario(scenario, out)
     with open(out / "summary.csv", newline="") as summary, open(out / "obstacle_passes.csv", newline="") as passes:

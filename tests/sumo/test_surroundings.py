@@ -464,6 +464,34 @@ def test_a_vehicle_from_behind_in_a_lane_beside_is_a_follower_charged_only_for_c
     assert len(plain) == len(discs) and {d.follower_side for d in plain} == {0.0}
 
 
+@pytest.mark.parametrize(("follower_pos_m", "lets_in"), [(212.0, False), (195.0, True)])
+def test_a_follower_beside_a_blockage_is_predicted_to_let_the_ego_in_only_where_it_can(follower_pos_m, lets_in):
+    """Standing behind a stopped car, the ego may pull out into the left lane. A follower there far enough back to let
+    it in (braking at follower_yield_mps2 while the ego speeds up) is predicted braking; one 15 m back at 14 m/s (seed
+    3612: the ego pulled out in front of it and side-swiped it) keeps its speed, so pulling out in front of it pays."""
+    from agentic_mpc.sumo.config import StaticObstacle
+
+    obstacle = StaticObstacle(id="stopped", lane="center", pos_m=245.0)
+    follower = VehicleSpawn(id="follower", lane="left", pos_m=follower_pos_m, speed_mps=14.0, max_speed_mps=14.0,
+                            imperfection=0.0, lane_changes=False)
+    config = curvy_config(obstacles=(obstacle,), vehicles=(follower,), ego=EgoStart(lane="center", pos_m=233.0,
+                          speed_mps=0.0), surroundings=SurroundingsConfig(edges="corridor"))
+    with SumoWorld(config) as world:
+        builder, observation = builder_of(world), world.observation
+        assert 2 in builder.passing_lanes(observation, target_lane=1)
+        discs = builder.discs(observation, target_lane=1)
+    config, horizon_s = builder.config, builder._horizon_s
+    seen = observation.vehicle("follower")
+    closing = seen.speed_mps - observation.ego.speed_mps
+    braking_mps2 = config.follower_yield_mps2 + config.follower_yield_merge_accel_mps2
+    needed_m = closing**2 / (2 * braking_mps2) + config.leader_standstill_gap_m
+    assert (seen.gap_m >= needed_m) is lets_in
+    travelled_m = [float(np.hypot(*(d.centres[-1] - d.centres[0]))) for d in discs]
+    predicted_mps = seen.speed_mps - (0.5 * config.follower_yield_mps2 * horizon_s if lets_in else 0.0)
+    predicted_m = predicted_mps * (horizon_s - builder._steps[0])  # from stage 1 to stage H
+    assert discs and travelled_m == pytest.approx([predicted_m] * len(discs), rel=0.01)
+
+
 def test_lane_neighbours_are_the_nearest_behind_and_ahead_in_the_lane_the_ego_may_enter():
     vehicles = (
         VehicleSpawn(id="left_behind", lane="left", pos_m=207.0, speed_mps=15.5),
