@@ -2,9 +2,10 @@
 it that it is merely queueing behind.
 
 A step counts as stuck when the ego's speed is below :data:`STANDING_MPS`, the tracked reference speed is
-above it, and either nothing stands directly ahead in its lane within :data:`QUEUE_GAP_M` (the road ahead is
-free: the controller keeps it still), or what stands there is a static obstacle within :data:`OBSTACLE_GAP_M`
-(a stopped car the ego must go around, not a queue that will move). Standing behind a vehicle of the traffic is queueing, not stuck.
+above it, and either nothing stands directly ahead (in its lane, or overlapping it sideways) within
+:data:`QUEUE_GAP_M` (the road ahead is free: the controller keeps it still), or what stands there is a static
+obstacle within :data:`OBSTACLE_GAP_M` (a stopped car the ego must go around, not a queue that will move).
+Standing behind a vehicle of the traffic is queueing, not stuck.
 :class:`StuckTracker` keeps the stuck intervals; ``summary.csv`` has the longest (``stuck_s``) and the count
 of static obstacles the ego got past (``blockages_passed``), ``events.csv`` one ``stuck`` row per interval
 of at least :data:`REPORTED_S`. :func:`resume_to_v_ref_s` says how long the ego took to get back to speed
@@ -120,7 +121,7 @@ class StuckTracker:
 def _why_still(observation: Observation, lane_count: int | None) -> str | None:
     """Why a standing ego counts as stuck, or None when it is queueing behind traffic."""
     ahead = [(v.gap_m, "vehicle", v.id) for v in observation.traffic
-             if v.relative_lane == 0 and v.relation == "ahead" and v.gap_m < QUEUE_GAP_M]
+             if v.relation == "ahead" and v.gap_m < QUEUE_GAP_M and _in_path(v, observation.ego)]
     ahead += [(o.gap_m, "obstacle", o.id) for o in observation.obstacles
               if o.relation == "ahead" and o.lane_index == observation.ego.lane_index and o.gap_m < OBSTACLE_GAP_M]
     if not ahead:
@@ -133,6 +134,16 @@ def _why_still(observation: Observation, lane_count: int | None) -> str | None:
     if lane_count is not None and len({o.lane_index for o in together}) >= lane_count:
         return f"every lane blocked ({', '.join(sorted(o.id for o in together))})"
     return f"behind obstacle {identifier}"
+
+
+def _in_path(vehicle: Any, ego: Any) -> bool:
+    """In the ego's lane, or its body overlapping the ego's sideways: an ego standing astride a lane line (4017: its
+    centre 5 cm into the left lane, a car 0.5 m ahead of it in the centre lane) queues behind it too."""
+    if vehicle.relative_lane == 0:
+        return True
+    heading = ego.heading_rad
+    sideways_m = (vehicle.y_m - ego.y_m) * math.cos(heading) - (vehicle.x_m - ego.x_m) * math.sin(heading)
+    return abs(sideways_m) < 0.5 * (vehicle.width_m + ego.width_m)
 
 
 def resume_to_v_ref_s(time_s: Any, v_mps: Any, v_ref_mps: Any) -> float:

@@ -14,12 +14,16 @@ DT = 0.04
 
 
 def observation(t, speed, *, traffic=(), obstacles=(), lane=1, road_s=100.0):
-    ego = SimpleNamespace(speed_mps=speed, lane_index=lane, road_s_m=road_s)
+    """The ego at the origin heading along x, 2 m wide, its lane's centre on y = 0 (3.5 m lanes)."""
+    ego = SimpleNamespace(speed_mps=speed, lane_index=lane, road_s_m=road_s, x_m=0.0, y_m=0.0, heading_rad=0.0,
+                          width_m=2.0)
     return SimpleNamespace(time_s=t, ego=ego, traffic=tuple(traffic), obstacles=tuple(obstacles))
 
 
-def car(gap, lane_offset=0, relation="ahead"):
-    return SimpleNamespace(id="car", relative_lane=lane_offset, relation=relation, gap_m=gap)
+def car(gap, lane_offset=0, relation="ahead", lateral_m=0.0):
+    """A 4.5 x 1.8 m car ``gap`` m ahead of the 5.2 m ego, ``lateral_m`` left of its lane's centre."""
+    return SimpleNamespace(id="car", relative_lane=lane_offset, relation=relation, gap_m=gap, x_m=gap + 4.85,
+                           y_m=3.5 * lane_offset + lateral_m, width_m=1.8)
 
 
 def obstacle(identifier, gap, lane=1, road_s=105.0):
@@ -57,6 +61,19 @@ def test_queueing_behind_a_car_or_being_told_to_stop_is_not_stuck():
 def test_a_car_in_the_next_lane_or_far_ahead_is_no_queue():
     tracker = StuckTracker(lane_count=3)
     drive(tracker, 3.0, speed=0.0, traffic=[car(3.0, lane_offset=1), car(30.0)])
+    tracker.finish()
+    assert tracker.longest_s == pytest.approx(3.0, abs=DT) and tracker.longest_reason == "road ahead free"
+
+
+def test_a_car_in_the_next_lane_overlapping_the_egos_path_is_a_queue():
+    """The ego astride the line to the left lane, counted in it, with a car 0.5 m ahead in the centre lane whose body
+    overlaps its path (4017, a gridlock at the curve's stopped car): queueing. One clear of its path is not."""
+    tracker = StuckTracker(lane_count=3)
+    t = drive(tracker, 3.0, speed=0.0, traffic=[car(0.5, lane_offset=-1, lateral_m=2.4)])  # 1.1 m right of the ego
+    tracker.finish()
+    assert tracker.longest_s == 0.0
+    tracker = StuckTracker(lane_count=3)
+    drive(tracker, 3.0, speed=0.0, start=t, traffic=[car(0.5, lane_offset=-1, lateral_m=1.5)])  # 2.0 m right
     tracker.finish()
     assert tracker.longest_s == pytest.approx(3.0, abs=DT) and tracker.longest_reason == "road ahead free"
 
