@@ -13,8 +13,8 @@ the centre by L_ego/2 sin(heading). Lanes the ego may not enter keep the physica
 
 Following distance: the cover of a vehicle ahead in the ego's lane can reach back by ``leader_standstill_gap_m +
 leader_time_headway_s * v``, never over the ego. J0's time gap (below) keeps the distance along the path with a
-gradient, and the extension paid the ego for moving sideways after a cut-in (dense traffic, seeds 100-119: lane
-excursions up to 1.9 m with it, 0.29 m without; docs/cost-design.md "Time gap"), so it is 0 by default.
+gradient, and the extension paid the ego for moving sideways after a cut-in (lane excursions up to 1.9 m with it,
+0.29 m without: docs/cost-design.md "Time gap"), so it is 0 by default.
 
 Time gap (J0's ``Surroundings.leaders``, :meth:`SurroundingsBuilder.leaders`): the nearest vehicle ahead on the lane
 J1 tracks (else the ego's own), plus a nearer one from a lane beside whose box overlaps the path lane now or within
@@ -218,13 +218,11 @@ class SurroundingsBuilder:
                     per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]], ego_speed_mps: float,
                     passing_lanes: frozenset[int] = frozenset(), ego_at: tuple[float, float] | None = None) -> None:
         """The discs of the vehicles on lanes, one compiled call per lane (:mod:`agentic_mpc.sumo.kernels`): stage k of
-        a disc is the lane point at lane_s + v t_k, plus the vehicle's lateral offset, plus the disc's offset along its
-        heading (a car 40 deg across its lane in a rescue lane reaches into the next: docs/traffic.md). Gap acceptance:
-        a follower in a lane beside a blockage (:meth:`passing_lanes`) is predicted to let the ego in, braking at
-        ``follower_yield_mps2`` (at constant speed no gap in 3240 veh/h let the ego pull out from a standstill), if
-        it can (:func:`~agentic_mpc.sumo.neighbours.can_let_in`). With ``ego_at`` (the ego's offset left of the
-        road's reference line, its speed), a vehicle behind in a lane beside closing in faster than
-        ``FOLLOWER_CLOSING_MPS`` is a follower (``MovingDisc.follower_side``)."""
+        a disc is the lane point at lane_s + v t_k, plus the vehicle's lateral offset and the disc's offset along its
+        heading. Gap acceptance (docs/traffic.md): a follower in a lane beside a blockage (:meth:`passing_lanes`) that
+        can let the ego in (``neighbours.can_let_in``) is predicted to, braking at ``follower_yield_mps2``. With
+        ``ego_at`` (the ego's offset left of the road's reference line, its speed), a vehicle behind in a lane beside
+        closing in faster than ``FOLLOWER_CLOSING_MPS`` is a follower (``MovingDisc.follower_side``)."""
         yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
         for index, lane_items in per_lane.items():
             rows: list[tuple[float, float, float, float, float]] = []  # (speed, lane_s, lateral, offset, heading)
