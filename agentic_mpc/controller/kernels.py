@@ -66,13 +66,32 @@ def _sin_small(d: float) -> float:
 
 
 @numba.njit(inline="always", **_JIT)
-def _cover_r2(radius, body, half_length, half_width, cos_phi, sin_phi, hx, hy):
-    """A disc's squared radius with the ego turned against the cover's heading: its corner reaches further
-    (``MovingDisc.headings``)."""
+def _body_radius(body, half_length, half_width, cos_phi, sin_phi, hx, hy):
+    """The bodies' radius of a disc with the ego turned against the cover's heading: its corner reaches further
+    (``MovingDisc.headings``); the cover's radius is at least this."""
     cos_rel = cos_phi * hx + sin_phi * hy
     sin_rel = sin_phi * hx - cos_phi * hy
-    r = max(radius, body + max(0.0, half_length * abs(sin_rel) - half_width * (1.0 - abs(cos_rel))))
-    return r * r
+    return body + max(0.0, half_length * abs(sin_rel) - half_width * (1.0 - abs(cos_rel)))
+
+
+@numba.njit(inline="always", **_JIT)
+def _contact(d2, bodies, touch_weight, touch_share2, inv_closing, dx, dy, wx, wy, tx, ty):
+    """Where the bodies touch (inside ``touch_share2`` x their radius squared): up to ``touch_weight`` on top of
+    the disc's clearance, as far as the ego closes in by its own motion: (wx, wy) its velocity relative to the
+    other's, (tx, ty) the other's direction of travel (``Mandatory.vehicle_contact_weight``,
+    ``primitives/vehicle_discs.py``). A pass of its own, only where a sample touches: in the clearance's loop the
+    branch and the root stopped it vectorising (2.5x the disc pass)."""
+    touch2 = touch_share2 * bodies * bodies
+    if d2 >= touch2:
+        return 0.0
+    closing = 1.0
+    if d2 > 0.0:
+        d = np.sqrt(d2)
+        along = -(dx * tx + dy * ty) / d  # > 0: the other ahead
+        across = (dx * ty - dy * tx) / d
+        towards = (wy * tx - wx * ty) * across + max(0.0, along) * (wx * tx + wy * ty)
+        closing = min(1.0, max(0.0, towards * inv_closing))
+    return touch_weight * (1.0 - d2 / touch2) * closing
 
 
 @numba.njit(**_JIT)
@@ -228,21 +247,47 @@ def rollout_costs(
             radius, weight, body = disc_params[o, 0], disc_params[o, 1], disc_params[o, 2]
             half_length, half_width = disc_params[o, 3], disc_params[o, 4]
             side, gap_now, inv_ramp = disc_params[o, 5], disc_params[o, 6], disc_params[o, 7]
+            touch_weight, touch_share2, inv_closing = disc_params[o, 8], disc_params[o, 9], disc_params[o, 10]
+            touching = 0
             if side == 0.0:  # the branch outside the sample loop: inside, it cost the disc pass 6 %
                 for i in range(n_samples):
                     dx = x[i] - cx
                     dy = y[i] - cy
                     d2 = dx * dx + dy * dy
-                    r2 = _cover_r2(radius, body, half_length, half_width, c[i], s[i], hx, hy)
+                    bodies = _body_radius(body, half_length, half_width, c[i], s[i], hx, hy)
+                    r = max(radius, bodies)
+                    r2 = r * r
                     costs[i] += weight * (2.0 - d2 / r2) if d2 < r2 else 0.0
+                    touching += 1 if d2 < touch_share2 * bodies * bodies else 0
             else:  # a follower's (MovingDisc.follower_side): as far as the ego came closer to its line
                 for i in range(n_samples):
                     dx = x[i] - cx
                     dy = y[i] - cy
                     d2 = dx * dx + dy * dy
-                    r2 = _cover_r2(radius, body, half_length, half_width, c[i], s[i], hx, hy)
+                    bodies = _body_radius(body, half_length, half_width, c[i], s[i], hx, hy)
+                    r = max(radius, bodies)
+                    r2 = r * r
                     closer = min(1.0, max(0.0, (gap_now - side * (hy * dx - hx * dy)) * inv_ramp))
                     costs[i] += weight * (2.0 - d2 / r2) * closer if d2 < r2 else 0.0
+                    touching += 1 if d2 < touch_share2 * bodies * bodies else 0
+            if touching > 0 and touch_weight > 0.0:
+                # The other's velocity over this stage (the first stage's: to the next), and its lane's direction:
+                # that of its predicted motion (along its lane), else its heading.
+                k0 = k - 1 if k > 0 else 0
+                k1 = k0 + 1 if horizon > 1 else 0
+                vox = (disc_centres[o, k1, 0] - disc_centres[o, k0, 0]) / dt
+                voy = (disc_centres[o, k1, 1] - disc_centres[o, k0, 1]) / dt
+                speed_other = np.sqrt(vox * vox + voy * voy)
+                tx, ty = (vox / speed_other, voy / speed_other) if speed_other > 0.0 else (hx, hy)
+                for i in range(n_samples):
+                    dx = x[i] - cx
+                    dy = y[i] - cy
+                    bodies = _body_radius(body, half_length, half_width, c[i], s[i], hx, hy)
+                    contact = _contact(dx * dx + dy * dy, bodies, touch_weight, touch_share2, inv_closing, dx, dy,
+                                       v[i] * c[i] - vox, v[i] * s[i] - voy, tx, ty)
+                    if side != 0.0:
+                        contact *= min(1.0, max(0.0, (gap_now - side * (hy * dx - hx * dy)) * inv_ramp))
+                    costs[i] += contact
         for e in range(edge_ref.shape[0]):
             ex, ey, tx, ty = edge_ref[e, k, 0], edge_ref[e, k, 1], edge_tan[e, k, 0], edge_tan[e, k, 1]
             side, margin, weight = edge_params[e, 0], edge_params[e, 1], edge_params[e, 2]
@@ -330,47 +375,3 @@ def fused_costs(
     """Run the fused kernel on one step's terms; fills and returns ``costs``."""
     rollout_costs(state, params_packed, basis, z_delta, z_ab, *terms, work, costs)
     return costs
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def assemble_samples(noise_map, noise, mean, antithetic, include_mean, z):
-    """z = mean + noise_map @ noise, per input, into ``z`` (2, C, S): the noisy half then its mirror image
-    (``antithetic``), and sample 0 the unperturbed mean (``include_mean``). ``noise_map`` (2, C, C) is the
-    pinned map or diag(std); ``noise`` (2, C, S/2 or S) standard normal. What ``FourierMPPI.sample`` does in
-    NumPy, without its temporaries."""
-    n_inputs, n_coef, n_noise = noise.shape
-    for a in range(n_inputs):
-        for c in range(n_coef):
-            m = mean[a, c]
-            for s in range(n_noise):
-                z[a, c, s] = 0.0
-            for j in range(n_coef):
-                factor = noise_map[a, c, j]
-                if factor != 0.0:
-                    for s in range(n_noise):
-                        z[a, c, s] += factor * noise[a, j, s]
-            for s in range(n_noise):
-                scaled = z[a, c, s]
-                z[a, c, s] = scaled + m
-                if antithetic:
-                    z[a, c, n_noise + s] = m - scaled
-            if include_mean:
-                z[a, c, 0] = m
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def start_and_shift(z, cos_l, sin_l, shifted):
-    """u(0) of each input's series (beta_0 + sum beta_l) and, into ``shifted``, the coefficients advanced by
-    one step (each harmonic's (alpha_l, beta_l) rotated by 2 pi l / H): ``fourier.value_at_start`` and
-    ``fourier.OneStepShift`` in one call. Returns (delta(0), ab(0))."""
-    starts = np.empty(z.shape[0])
-    for a in range(z.shape[0]):
-        betas = 0.0  # summed before adding beta_0, in NumPy's order, so that u(0) is bitwise the reference's
-        shifted[a, 0] = z[a, 0]
-        for l in range(cos_l.shape[0]):
-            alpha, beta = z[a, 1 + 2 * l], z[a, 2 + 2 * l]
-            betas += beta
-            shifted[a, 1 + 2 * l] = alpha * cos_l[l] - beta * sin_l[l]
-            shifted[a, 2 + 2 * l] = alpha * sin_l[l] + beta * cos_l[l]
-        starts[a] = z[a, 0] + betas
-    return starts[0], starts[1]

@@ -15,9 +15,9 @@ Why the levers of steps 2 and 4 exist, and what each measured: docs/cost-design.
 
 Step 3 runs in the fused Numba kernel when every attached primitive has a fused form, and in plain NumPy
 otherwise (or with ``backend="reference"``). On the fast backend steps 2, 4 and 5 are compiled too
-(``kernels.assemble_samples``, ``weighting.weigh_and_average``, ``kernels.start_and_shift``): around a 0.3 ms
-kernel, their NumPy forms cost another 0.3 ms per step on the project machine. The reference backend keeps
-all of it in NumPy; the two agree to float tolerance (tests/controller).
+(``coefficient_kernels.assemble_samples``, ``weighting.weigh_and_average``, ``coefficient_kernels.start_and_shift``):
+around a 0.3 ms kernel, their NumPy forms cost another 0.3 ms per step on the project machine. The reference
+backend keeps all of it in NumPy; the two agree to float tolerance (tests/controller).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agentic_mpc.controller import fourier, kernels, weighting
+from agentic_mpc.controller import coefficient_kernels, fourier, kernels, weighting
 from agentic_mpc.controller.config import MPPIConfig
 from agentic_mpc.controller.rollout import rollout
 from agentic_mpc.primitives.base import Rollouts, StepContext, Surroundings
@@ -116,7 +116,7 @@ class FourierMPPI:
         self.rng.standard_normal(out=self._noise)
         if self._fast:  # the same arithmetic, compiled (tests/controller/test_mppi.py compares the two)
             noise_map = self._free_map if free_start else self._compiled_noise_map
-            kernels.assemble_samples(noise_map, self._noise, self.mean, c.antithetic, c.include_mean, z)
+            coefficient_kernels.assemble_samples(noise_map, self._noise, self.mean, c.antithetic, c.include_mean, z)
             return z
         if self._noise_map is not None and not free_start:  # a fixed-order product: no BLAS (docs/reproducibility.md)
             self._scaled[...] = 0.0
@@ -183,7 +183,7 @@ class FourierMPPI:
         self.optimum = optimum
         if self._fast:
             shifted = np.empty_like(optimum)
-            delta_now, ab_now = kernels.start_and_shift(optimum, self._shift.cos, self._shift.sin, shifted)
+            delta_now, ab_now = coefficient_kernels.start_and_shift(optimum, self._shift.cos, self._shift.sin, shifted)
         else:
             delta_now, ab_now = (float(v) for v in fourier.value_at_start(optimum))
             shifted = self._shift(optimum)

@@ -225,9 +225,9 @@ class FusedArrays(NamedTuple):
     # previous ab, steering smoothness weight, throttle/brake smoothness weight, brake effort weight
     disc_centres: FloatArray  # (n_discs, H, 2)
     disc_headings: FloatArray  # (n_discs, H, 2) unit headings the cover assumes the ego aligned with
-    disc_params: FloatArray  # (n_discs, 8): cover radius, weight per stage, body radius, ego half length, half
+    disc_params: FloatArray  # (n_discs, 11): cover radius, weight per stage, body radius, ego half length, half
     # width (both 0: the radius does not depend on the ego's heading; see MovingDisc), follower side, its lateral
-    # gap now, 1 / ramp
+    # gap now, 1 / ramp, contact weight per stage, contact share squared, 1 / contact closing speed
     edge_ref: FloatArray  # (n_edges, H, 2) points on the road edges
     edge_tan: FloatArray  # (n_edges, H, 2)
     edge_params: FloatArray  # (n_edges, 3): side sign (+1 left edge, -1 right edge), margin, weight
@@ -263,10 +263,9 @@ class FusedTerms:
     steer_sign: list[tuple[float, float]] = field(default_factory=list)
     lateral: list[tuple[float, float, float, FloatArray, FloatArray]] = field(default_factory=list)
     limits: tuple[float, ...] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    discs: list[tuple[FloatArray, FloatArray, float, float, float, float, float, float, float, float]] = field(
-        default_factory=list)
+    discs: list[tuple[FloatArray, FloatArray, float, ...]] = field(default_factory=list)
     """Per disc: centres, headings, cover radius, weight, body radius, ego half length, half width, follower side,
-    the follower's lateral gap now and 1 / its ramp (:class:`MovingDisc`)."""
+    the follower's lateral gap now, 1 / its ramp (:class:`MovingDisc`), contact weight, share squared, 1 / closing."""
     edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
     leaders: list[tuple[FloatArray, FloatArray, float, float]] = field(default_factory=list)
     time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
@@ -306,7 +305,7 @@ class FusedTerms:
             limits=np.array(self.limits, dtype=np.float64),  # holds the previous input: new every step
             disc_centres=stack([c for c, *_ in self.discs]),
             disc_headings=stack([headings for _, headings, *_ in self.discs]),
-            disc_params=table([d[2:] for d in self.discs], 8),
+            disc_params=table([d[2:] for d in self.discs], 11),
             edge_ref=stack([p for p, _, _, _, _ in self.edges]),
             edge_tan=stack([t for _, t, _, _, _ in self.edges]),
             edge_params=table([(side, margin, w) for _, _, side, margin, w in self.edges], 3),

@@ -3,7 +3,10 @@
 - input limits: the raw steering and throttle/brake series beyond [-1, 1] (the actuators saturate there,
   so without this the sampling mean could drift deep into saturation where every sample looks the same);
 - a speed limit;
-- other road users: discs predicted over the horizon (``Surroundings.moving_discs``);
+- other road users: discs predicted over the horizon (``Surroundings.moving_discs``), 1-2 x
+  ``vehicle_clearance_weight`` per stage inside one, and up to ``vehicle_contact_weight`` more where the bodies touch:
+  the margin is soft, touching is not (docs/traffic.md: squeezed in a crawling queue, every plan inside three discs,
+  the ego crept into the car ahead, which cost at most twice its margin);
 - road edges (``Surroundings.road_left_edge`` / ``road_right_edge``);
 - a time gap to the vehicles ahead in the ego's path (``Surroundings.leaders``): the predicted bumper-to-bumper
   gap, measured along the path, should be at least v(k) * ``time_gap_s`` + ``standstill_gap_m`` at every
@@ -44,7 +47,6 @@ import numpy as np
 from pydantic import Field
 
 from agentic_mpc.primitives.base import (
-    FOLLOWER_APPROACH_RAMP_M,
     STANDING_PLAN_MPS,
     Blockage,
     FloatArray,
@@ -52,13 +54,13 @@ from agentic_mpc.primitives.base import (
     LaneLines,
     LaneNeighbour,
     Leader,
-    MovingDisc,
     Primitive,
     Rollouts,
     StepContext,
     TrackingReference,
 )
 from agentic_mpc.primitives.lane_entry import lane_entry_cost, lane_entry_params
+from agentic_mpc.primitives.vehicle_discs import disc_cost, disc_row
 
 TIME_GAP_WEIGHT = 10.0
 """Default ``time_gap_weight``, per m^2 per stage (tuned on the dense traffic scenario, seeds 100-119:
@@ -86,6 +88,20 @@ class Mandatory(Primitive):
     speed_limit_weight: float = Field(10.0, ge=0, description="per stage, on (v - limit)^2 beyond the limit")
     vehicle_clearance_weight: float = Field(
         200.0, ge=0, description="per stage inside another road user's disc, scaled by 1 + penetration depth"
+    )
+    vehicle_contact_weight: float = Field(
+        4000.0, ge=0, description="per stage where the bodies touch (inside vehicle_contact_share of a disc's bodies' "
+        "radius), x (1 - d²/r_touch²) x how far the ego closes in (vehicle_contact_closing_mps), on top of the "
+        "clearance: the margin is soft, touching is not"
+    )
+    vehicle_contact_share: float = Field(
+        0.8, gt=0, le=1.0, description="the share of a disc's bodies' radius (the half widths + the 0.5 m clearance "
+        "margin: 0.8 x 2.4 m = 1.9 m for two cars) inside which they touch"
+    )
+    vehicle_contact_closing_mps: float = Field(
+        1.0, gt=0, description="the contact is charged as far as the ego closes in by its own motion, in full from "
+        "this speed (relative to the other's, across its heading, and along it onto one ahead): a standing ego is "
+        "not pushed to flee a contact that another drives into"
     )
     input_rate_weight: float = Field(
         0.0, ge=0, description="on the change of the first input from the previous step's (anti-chatter)"
@@ -222,33 +238,6 @@ def _gap_along_path_m(leader: Leader, x_m: float, y_m: float) -> float:
     return tx * (lx - float(x_m)) + ty * (ly - float(y_m))
 
 
-def _turned_radius_m(disc: MovingDisc, r: Rollouts) -> FloatArray | float:
-    """The disc's radius with the ego turned against the heading its cover assumes (``MovingDisc.headings``):
-    its corner reaches ``a |sin psi| - b (1 - |cos psi|)`` further than the body's radius, never less than the
-    cover's; written as the fused kernel writes it."""
-    half_length, half_width = disc.ego_half_extents_m
-    if disc.headings is None or (half_length == 0.0 and half_width == 0.0):
-        return disc.radius_m
-    hx, hy = disc.headings[:, 0:1], disc.headings[:, 1:2]
-    c, s = np.cos(r.phi_rad), np.sin(r.phi_rad)
-    cos_rel, sin_rel = c * hx + s * hy, s * hx - c * hy
-    body = disc.radius_m if disc.body_radius_m is None else disc.body_radius_m
-    grown = body + np.maximum(0.0, half_length * np.abs(sin_rel) - half_width * (1.0 - np.abs(cos_rel)))
-    return np.maximum(disc.radius_m, grown)
-
-
-class _AlignedHeadings(dict):
-    """(H, 2) rows of (1, 0) per horizon, made once: the fused kernel reads a heading for every disc, and a
-    disc without one ignores it (its half extents are 0)."""
-
-    def __missing__(self, horizon: int) -> FloatArray:
-        value = self[horizon] = np.tile([1.0, 0.0], (horizon, 1))
-        return value
-
-
-_ALIGNED = _AlignedHeadings()
-
-
 @dataclass(frozen=True, slots=True)
 class PreparedMandatory:
     spec: Mandatory
@@ -279,6 +268,10 @@ class PreparedMandatory:
         return (lines.spacing_m, p.lane_line_standing_weight, p.lane_line_standing_mps, lines.ego_half_length_m,
                 lines.ego_half_width_m)
 
+    def _contact(self) -> tuple[float, float, float]:
+        p = self.spec
+        return p.vehicle_contact_weight, p.vehicle_contact_share, p.vehicle_contact_closing_mps
+
     def cost(self, r: Rollouts) -> FloatArray:
         p, h = self.spec, self.horizon
         total = p.steer_limit_weight / h * np.sum(np.maximum(0.0, np.abs(r.delta_command) - 1.0) ** 2, axis=0)
@@ -291,17 +284,7 @@ class PreparedMandatory:
         total += p.throttle_brake_smoothness_weight / h * np.sum(np.diff(r.ab_command, axis=0) ** 2, axis=0)
         total += p.brake_effort_weight / h * np.sum(r.brake**2, axis=0)
         for disc in self.discs:
-            d2 = (r.x_m - disc.centres[:, 0:1]) ** 2 + (r.y_m - disc.centres[:, 1:2]) ** 2
-            r2 = _turned_radius_m(disc, r) ** 2
-            inside = d2 < r2
-            if disc.follower_side == 0.0:
-                total += p.vehicle_clearance_weight / h * np.sum(inside * (2.0 - d2 / r2), axis=0)
-            else:  # a follower's: as far as the plan came closer to its line (MovingDisc.follower_side)
-                headings = _ALIGNED[h] if disc.headings is None else disc.headings
-                hx, hy = headings[:, 0:1], headings[:, 1:2]
-                gap = disc.follower_side * (hy * (r.x_m - disc.centres[:, 0:1]) - hx * (r.y_m - disc.centres[:, 1:2]))
-                closer = np.clip((disc.follower_gap_now_m - gap) / FOLLOWER_APPROACH_RAMP_M, 0.0, 1.0)
-                total += p.vehicle_clearance_weight / h * np.sum(inside * (2.0 - d2 / r2) * closer, axis=0)
+            total += disc_cost(disc, r, self.dt_s, p.vehicle_clearance_weight, *self._contact())
         for edge, side in self.edges:
             ex, ey = edge.points[:, 0:1], edge.points[:, 1:2]
             tx, ty = edge.tangents[:, 0:1], edge.tangents[:, 1:2]
@@ -373,14 +356,7 @@ class PreparedMandatory:
             p.throttle_brake_smoothness_weight / h,
             p.brake_effort_weight / h,
         )
-        for disc in self.discs:
-            if disc.headings is None:
-                headings, extents = _ALIGNED[h], (0.0, 0.0)
-            else:
-                headings, extents = disc.headings, disc.ego_half_extents_m
-            body = disc.radius_m if disc.body_radius_m is None else disc.body_radius_m
-            terms.discs.append((disc.centres, headings, disc.radius_m, p.vehicle_clearance_weight / h, body, *extents,
-                                disc.follower_side, disc.follower_gap_now_m, 1.0 / FOLLOWER_APPROACH_RAMP_M))
+        terms.discs.extend(disc_row(disc, h, p.vehicle_clearance_weight, *self._contact()) for disc in self.discs)
         for edge, side in self.edges:
             terms.edges.append((edge.points, edge.tangents, side, p.road_edge_margin_m, p.road_edge_weight / h))
         terms.time_gap = (p.time_gap_s, p.standstill_gap_m, p.time_gap_weight / h, p.time_gap_quadratic_m,

@@ -214,11 +214,11 @@ def test_compiled_weighting_equals_the_numpy_definition(costs, band):
 
 
 def test_compiled_start_and_shift_equal_the_fourier_module():
-    from agentic_mpc.controller import fourier, kernels
+    from agentic_mpc.controller import coefficient_kernels, fourier
 
     z = np.random.default_rng(7).normal(size=(2, 9))
     shift = fourier.OneStepShift(4, 50)
     shifted = np.empty_like(z)
-    starts = kernels.start_and_shift(z, shift.cos, shift.sin, shifted)
+    starts = coefficient_kernels.start_and_shift(z, shift.cos, shift.sin, shifted)
     assert np.array_equal(starts, fourier.value_at_start(z))  # bitwise: the applied input is the reference's
     assert np.array_equal(shifted, shift(z))
