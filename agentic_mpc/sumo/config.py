@@ -264,6 +264,12 @@ class SumoConfig(FrozenConfig):
         " beside, are moved back to their lane's centre (a truck so wedged held the ego behind it for 80 s:"
         " docs/traffic.md); None: left to SUMO",
     )
+    ego_standing_min_gap_m: float | None = Field(
+        None, ge=0, le=10,
+        description="with stopped-car obstacles, the ego's minGap in SUMO while it stands (< 0.5 m/s): SUMO's sublane"
+        " model blocks every sideways move of a car the ego stands closer behind than its minGap (incident_in_traffic"
+        " 4415: the road stood for good; docs/traffic.md); None: the ego's vType minGap always",
+    )
     announce_lane_changes: bool = Field(
         True,
         description="SUMO's drivers told of the ego's lane changes (its plan): followers in the lane it enters asked"

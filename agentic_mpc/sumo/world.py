@@ -6,8 +6,7 @@ One :meth:`SumoWorld.advance` (time t -> t + dt) with the controller's inputs:
 2. push the ego's new pose and speed into SUMO (``moveToXY`` with x, y kept exactly; the bridge converts
    centre -> front bumper and heading -> navigational angle, and writes our speed after the step);
 3. let SUMO step: its traffic reacts to the ego, collisions are collected;
-4. observe: the :class:`~agentic_mpc.world.observation.Observation` at t + dt, the ego exactly where our
-   model put it.
+4. observe: the :class:`~agentic_mpc.world.observation.Observation` at t + dt, the ego where our model put it.
 
 On any failure SUMO is closed and :class:`~agentic_mpc.world.base.WorldError` is raised; the last
 observation stays readable.
@@ -352,9 +351,8 @@ class SumoWorld:
         self._asked = asked
 
     def _step_sumo(self) -> None:
-        """One SUMO step; once a second, drivers near a stopped obstacle get room to edge out or are moved back into
-        their lane (as configured), and with rescue lanes those an emergency vehicle passed (or both stand behind one)
-        are released."""
+        """One SUMO step; once a second, the drivers' fixes near stopped obstacles (as configured) and with rescue
+        lanes, the release of those an emergency vehicle passed (or both stand behind one)."""
         self._bridge.step()
         self._sumo_steps += 1
         if self._sumo_steps % _RELEASE_EVERY_STEPS != 0:
@@ -364,6 +362,8 @@ class SumoWorld:
             self._bridge.edge_out_behind_obstacles(c.edge_out_min_gap_m, c.edge_out_after_s)
         if c.straighten_wedged_after_s is not None and c.obstacles:
             self._bridge.straighten_wedged(c.straighten_wedged_after_s)
+        if c.ego_standing_min_gap_m is not None and c.obstacles:
+            self._bridge.standing_min_gap((c.ego_id, f"{c.ego_id}.outline"), c.ego_standing_min_gap_m)
         if self.rescue_lanes:
             self._bridge.release_rescue_lanes(rescue.release_behind_m or rescue.reaction_dist_m,
                                               self._route_types.lc_strategic, rescue.release_blocked_within_m)

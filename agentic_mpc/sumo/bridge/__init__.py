@@ -106,6 +106,7 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading):
         self._edging_out: dict[str, float] = {}  # drivers edging out behind an obstacle -> their own minGap
         self._edge_out_waits: dict[str, int] = {}  # drivers standing at their minGap behind one -> calls in a row
         self._straightening: dict[str, tuple[int, float]] = {}  # wedged drivers moved -> (own lc mode, until s)
+        self._standing_gaps: dict[str, float] = {}  # external vehicles standing with a small minGap -> their own
         self._external: dict[str, float] = {}  # id -> length, for the centre/front conversion
         self._pending_speeds: dict[str, tuple[float, float]] = {}
         self._waiting_external: dict[str, tuple[int, float]] = {}

@@ -31,6 +31,7 @@ class BridgeState:
     _edging_out: dict[str, float]  # drivers edging out behind an obstacle -> their own minGap
     _edge_out_waits: dict[str, int]  # drivers standing at their minGap behind one -> calls in a row
     _straightening: dict[str, tuple[int, float]]  # wedged drivers moved back -> (own lane-change mode, until s)
+    _standing_gaps: dict[str, float]  # external vehicles standing with a small minGap -> their own minGap
     _external: dict[str, float]  # id -> length, for the centre/front conversion
     _pending_speeds: dict[str, tuple[float, float]]
     _waiting_external: dict[str, tuple[int, float]]

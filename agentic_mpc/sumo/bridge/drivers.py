@@ -174,3 +174,29 @@ class DriverCommands(BridgeState):
         the right and to the left: getNeighbors modes 3 and 2)."""
         return any(gap_m <= within_m and other in self._stopped
                    for mode in (2, 3) for other, gap_m in libsumo.vehicle.getNeighbors(vehicle_id, mode))
+
+    def standing_min_gap(self, vehicle_ids: Iterable[str], min_gap_m: float) -> None:
+        """While the first of ``vehicle_ids`` (the ego; then its outline) is slower than QUEUE_STANDING_MPS in SUMO,
+        they have ``min_gap_m`` as their minGap; their own once it moves. SUMO's sublane model counts a follower closer
+        than its minGap as overlapping and blocks every sideways move of the car ahead through the sublanes the
+        follower covers: the ego standing 1 m behind a car queued behind a stopped one kept it, and the road behind,
+        standing for good (``incident_in_traffic`` ambulance_right 4415). Off by default: docs/traffic.md."""
+        self._require_running()
+        try:
+            present = set(libsumo.vehicle.getIDList())
+            ids = [vehicle_id for vehicle_id in vehicle_ids if vehicle_id in present]
+            standing = bool(ids) and libsumo.vehicle.getSpeed(ids[0]) < QUEUE_STANDING_MPS
+            for vehicle_id in set(self._standing_gaps) - set(ids):
+                del self._standing_gaps[vehicle_id]
+            for vehicle_id in ids:
+                current_m = libsumo.vehicle.getMinGap(vehicle_id)  # SUMO's bluelight device may give the type back
+                if standing:
+                    self._standing_gaps.setdefault(vehicle_id, current_m)
+                    if current_m != min_gap_m:
+                        libsumo.vehicle.setMinGap(vehicle_id, min_gap_m)
+                elif vehicle_id in self._standing_gaps:
+                    own_m = self._standing_gaps.pop(vehicle_id)
+                    if current_m != own_m:
+                        libsumo.vehicle.setMinGap(vehicle_id, own_m)
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail("setting the standing ego's minGap", error) from error
