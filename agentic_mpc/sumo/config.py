@@ -80,6 +80,15 @@ class SurroundingsConfig(FrozenConfig):
         "braking late from 15 m/s and swerving or standing nose to tail; not while an emergency vehicle is this close "
         "(docs/traffic.md; None: off)",
     )
+    detour_merge_waits_from_mps: float | None = Field(
+        None,
+        gt=0,
+        description="with the detour ahead of a queue, while the ego is at least this fast and its centre still in "
+        "the tracked lane, J1 follows the lane beside only when that lane has room beside the ego "
+        "(sumo.queues.room_to_merge), else the tracked lane with its reference slowed to stop with room behind the "
+        "queue. None (the default): off; at 8.0 it ended the merges pressed to a car alongside (4459) but on unseen "
+        "4640-4679 it stopped a run behind the stopped car for 91 s (docs/traffic.md)",
+    )
     approach_decel_mps2: float | None = Field(
         None,
         gt=0,

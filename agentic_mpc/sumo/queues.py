@@ -132,6 +132,39 @@ car behind it (seeds 3003, 3012)."""
 PULL_OUT_ASIDE_M = 0.25
 """Standing behind a lone stopped obstacle, the ego has started to pull out to the side its centre is this far to."""
 
+MERGE_GAP_M = 2.0
+"""Driving towards a queue, J1 takes the lane beside only with this much room (bumper to bumper) to the cars in it
+ahead of the ego and behind it (:func:`room_to_merge`) ..."""
+MERGE_TIME_GAP_S = 0.5
+"""... behind it, this much more of the follower's speed ..."""
+MERGE_FOLLOWER_DECEL_MPS2 = 2.0
+"""... and the distance in which the follower, braking this hard, comes down to the ego's speed."""
+MERGE_WAIT_DECEL_MPS2 = 2.0
+"""While the merge waits for room, J1's reference slows so that braking this hard stops the ego with room to pull
+out behind the queue (:func:`approach_speed_cap_mps`): waiting at 15 m/s, the ego reached the queue too fast to
+stop and swerved into the car it waited for (4459)."""
+
+
+def room_to_merge(observation: Observation, lane_index: int) -> bool:
+    """Whether the lane ``lane_index`` beside the ego has room for it now: no car alongside, none ahead within
+    ``MERGE_GAP_M``, none behind within that plus ``MERGE_TIME_GAP_S`` of its speed plus its braking distance down
+    to the ego's speed. J1 on a lane beside with a car alongside in it pulled the ego to the lane line, where it drove
+    0.2-0.5 m from the car for 4 s and touched it when both braked for the queue (4459); another merged 2 m ahead of
+    a car at its speed and was struck (4454; docs/traffic.md)."""
+    ego_speed_mps = observation.ego.speed_mps
+    for vehicle in observation.traffic:
+        if vehicle.lane_index != lane_index or vehicle.lane_s_m is None:
+            continue
+        if vehicle.relation == "alongside" or vehicle.relation == "ahead" and vehicle.gap_m < MERGE_GAP_M:
+            return False
+        if vehicle.relation == "behind":
+            closing_mps = max(0.0, vehicle.speed_mps - ego_speed_mps)
+            room_m = (MERGE_GAP_M + MERGE_TIME_GAP_S * vehicle.speed_mps
+                      + closing_mps**2 / (2.0 * MERGE_FOLLOWER_DECEL_MPS2))
+            if vehicle.gap_m < room_m:
+                return False
+    return True
+
 
 @dataclass(frozen=True, slots=True)
 class _Passing:
@@ -140,6 +173,9 @@ class _Passing:
     tracked_lane: int
     started_in_line: bool
     """Started in the tracked lane, standing behind the obstacle or driving towards its queue: it lasts there too."""
+    waits_for_room: bool = False
+    """Started driving towards the queue: with ``Detour.merge_waits_from_mps``, while the ego's centre is in the
+    tracked lane, J1 follows the lane beside only when it has room (:func:`room_to_merge`), else the tracked lane."""
 
 
 class Detour:
@@ -163,18 +199,28 @@ class Detour:
       traffic at 2 m/s);
     - with ``ahead_m``, the ego drives in the tracked lane towards a queue with cars in it (:meth:`_ahead`): it
       merges while it moves. Seeing the queue only within its 2 s horizon, it braked from 15 m/s too late and
-      swerved into a car beside, or stood nose to tail with the queue's last car (docs/traffic.md)."""
+      swerved into a car beside, or stood nose to tail with the queue's last car (docs/traffic.md). With
+      ``merge_waits_from_mps``, until its centre is in the lane beside, J1 follows it only while it has room
+      (:func:`room_to_merge`)."""
 
-    def __init__(self, ahead_m: float | None = None) -> None:
+    def __init__(self, ahead_m: float | None = None, merge_waits_from_mps: float | None = None) -> None:
         self._passing: _Passing | None = None
         self.ahead_m = ahead_m
         """With a value, a third start: :meth:`_ahead`."""
+        self.merge_waits_from_mps = merge_waits_from_mps
+        """With a value, the third start's merge waits for room while the ego is this fast (``SurroundingsConfig``):
+        at speed a car alongside at the ego's speed stays there, and J1 held the ego pressed to the line beside it
+        (4459); slower, cars pass by and J0's gap acceptance decides the zipper (waiting at a crawl too, the ego stood
+        nose to tail in the queue with the lane beside crawling past it, 4639)."""
+        self.waiting_decel_mps2: float | None = None
+        """``MERGE_WAIT_DECEL_MPS2`` while the last :meth:`lane` kept J1 on the tracked lane for want of room."""
 
     def lane(self, observation: Observation, queues: tuple[Queue, ...], tracked_lane: int | None,
              within_m: float, lane_centres_m: tuple[float, ...], passing_side: str | None = None) -> int | None:
         """The lane to follow instead of ``tracked_lane``, or None to follow it. ``lane_centres_m``: each lane's
         centre line, from the road's, positive to the left; ``passing_side``: J3's preferred side, if any."""
         ego = observation.ego
+        self.waiting_decel_mps2 = None
         if tracked_lane is None or not ego.lane_role:
             self._passing = None
             return None
@@ -183,11 +229,21 @@ class Detour:
                 ego.lane_index == passing.followed_lane or passing.started_in_line and ego.lane_index == tracked_lane):
             obstacle = next((o for o in observation.obstacles if o.id == passing.obstacle_id), None)
             if obstacle is not None and obstacle.relation != "behind":
-                return passing.followed_lane
+                return self._followed(observation, passing)
         self._passing = (self._beside(observation, queues, tracked_lane, within_m)
                          or self._in_queue(observation, queues, tracked_lane, lane_centres_m)
                          or self._ahead(observation, queues, tracked_lane, lane_centres_m, passing_side))
-        return self._passing.followed_lane if self._passing is not None else None
+        return self._followed(observation, self._passing) if self._passing is not None else None
+
+    def _followed(self, observation: Observation, passing: _Passing) -> int | None:
+        """The lane J1 follows now while ``passing``: the tracked lane (None) while a merge waits for room."""
+        ego = observation.ego
+        waits_from = self.merge_waits_from_mps
+        if (passing.waits_for_room and waits_from is not None and ego.lane_index == passing.tracked_lane
+                and ego.speed_mps >= waits_from and not room_to_merge(observation, passing.followed_lane)):
+            self.waiting_decel_mps2 = MERGE_WAIT_DECEL_MPS2
+            return None
+        return passing.followed_lane
 
     def _ahead(self, observation: Observation, queues: tuple[Queue, ...], tracked_lane: int,
                lane_centres_m: tuple[float, ...], passing_side: str | None) -> _Passing | None:
@@ -208,7 +264,7 @@ class Detour:
         for side in sides:
             for lane in (tracked_lane - 1, tracked_lane + 1):
                 if 0 <= lane < len(lane_centres_m) and (lane_centres_m[lane] - here) * side > 0.0:
-                    return _Passing(queue.obstacle_id, lane, tracked_lane, True)
+                    return _Passing(queue.obstacle_id, lane, tracked_lane, True, waits_for_room=True)
         return None
 
     @staticmethod

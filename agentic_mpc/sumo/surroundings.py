@@ -93,7 +93,7 @@ class SurroundingsBuilder:
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
-        self._detour = Detour(self.config.detour_ahead_of_queues_m)
+        self._detour = Detour(self.config.detour_ahead_of_queues_m, self.config.detour_merge_waits_from_mps)
 
     def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
         """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""
@@ -364,12 +364,11 @@ class SurroundingsBuilder:
         # Queued nose to tail already (the tail is then a time-gap leader): the room behind it is lost, and
         # asking for it made the ego steer and creep into the car (ego_into_stopped at 0.2 m/s, seeds 0-2).
         blockages = tuple(queue.tail for queue in self.queues(observation) if not queue.nose_to_tail)
-        cap = None
         # The queue in the ego's own lane, whichever lane J1 follows: with J1 on the lane beside (a detour), the ego
         # came up at 15 m/s, found no gap to pull out into and braked too late (seed 1908, docs/traffic.md).
-        if self.config.approach_decel_mps2 is not None and observation.ego.lane_index is not None:
-            cap = approach_speed_cap_mps(self.queues(observation), observation.ego.lane_index,
-                                         self.config.approach_decel_mps2, self.params.pull_out_distance_m)
+        decel = self.config.approach_decel_mps2 or self._detour.waiting_decel_mps2  # or a merge waits for room
+        cap = None if decel is None or observation.ego.lane_index is None else approach_speed_cap_mps(
+            self.queues(observation), observation.ego.lane_index, decel, self.params.pull_out_distance_m)
         neighbours = self._lane_neighbours(observation, target_lane) if self.config.lane_neighbours else ()
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
                             blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=cap,

@@ -441,6 +441,65 @@ def test_coming_up_to_a_queue_j1_slows_to_a_speed_it_can_stop_from_with_room():
         assert surroundings.reference_speed_cap_mps is None  # passing it in the lane beside (the detour's)
 
 
+def test_driving_towards_a_queue_the_merge_can_wait_for_room_in_the_lane_beside_and_slow_meanwhile():
+    """``detour_merge_waits_from_mps`` (off by default): the detour towards a queue takes the lane beside only with
+    room in it. With a car alongside there, J1 keeps the ego's lane and its reference slows to stop with room behind
+    the queue (braking at 2 m/s²); with the car far behind, J1 follows the lane beside and nothing is capped. A follower closer than 2 m + 0.5 s of its speed + its
+    braking distance (2 m/s²) down to the ego's speed, or a car ahead within 2 m, leaves no room either. Once the
+    ego's centre is in the lane beside, the merge goes on whatever is there; slower than the option's 8 m/s it does not
+    wait (J0's gap acceptance decides the zipper), nor with the option off."""
+    from agentic_mpc.sumo.config import StaticObstacle
+    from agentic_mpc.sumo.queues import MERGE_WAIT_DECEL_MPS2, Detour, room_to_merge
+    from agentic_mpc.vehicle import PAPER_PARAMS
+
+    queue = (VehicleSpawn(id="queued1", lane="center", pos_m=288.0, lane_changes=False),
+             VehicleSpawn(id="queued2", lane="center", pos_m=281.0, lane_changes=False))
+    beside = VehicleSpawn(id="beside", lane="right", pos_m=220.0, speed_mps=15.0, lane_changes=False)
+    config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=295.0),),
+                          vehicles=(*queue, beside), surroundings=SurroundingsConfig(edges="corridor"))
+    with SumoWorld(config) as world:
+        observation = world.observation
+        (car,) = [v for v in observation.traffic if v.id == "beside"]
+        assert car.relation == "alongside" and car.lane_index == 0
+        builder = builder_of(world, detour_merge_waits_from_mps=8.0)
+        (blockage,) = builder.queues(observation)
+        assert blockage.members and 30.0 < blockage.tail_gap_m < 80.0
+        off = builder_of(world).build(observation, world.ego_state, target_lane=1, passing_side="right")
+        assert off.reference_shift_m == pytest.approx(-3.5, abs=0.01) and off.reference_speed_cap_mps is None
+        waiting = builder.build(observation, world.ego_state, target_lane=1, passing_side="right")
+        room = PAPER_PARAMS.pull_out_distance_m(blockage.tail.radius_m)
+        assert waiting.reference_shift_m == 0.0
+        assert waiting.reference_speed_cap_mps == pytest.approx(
+            math.sqrt(2.0 * MERGE_WAIT_DECEL_MPS2 * (blockage.tail_gap_m - room)), rel=1e-12)
+        assert waiting.reference_speed_cap_mps < 15.0
+
+        def with_car(**update: object):
+            traffic = tuple(dataclasses.replace(v, **update) if v.id == "beside" else v for v in observation.traffic)
+            return dataclasses.replace(observation, traffic=traffic)
+
+        far_behind = with_car(relation="behind", gap_m=40.0)
+        merging = builder.build(far_behind, world.ego_state, target_lane=1, passing_side="right")
+        assert merging.reference_shift_m == pytest.approx(-3.5, abs=0.01) and merging.reference_speed_cap_mps is None
+        # a follower at 15 m/s, the ego at 15 m/s: 2 + 7.5 m; at 20 m/s: 2 + 10 + 6.25 m
+        assert room_to_merge(with_car(relation="behind", gap_m=9.6), 0)
+        assert not room_to_merge(with_car(relation="behind", gap_m=9.4), 0)
+        assert not room_to_merge(with_car(relation="behind", gap_m=18.0, speed_mps=20.0), 0)
+        assert room_to_merge(with_car(relation="behind", gap_m=18.4, speed_mps=20.0), 0)
+        assert not room_to_merge(with_car(relation="ahead", gap_m=1.5), 0)
+        assert room_to_merge(with_car(relation="ahead", gap_m=2.5), 0)
+        assert not room_to_merge(observation, 0) and room_to_merge(observation, 2)
+        detour, centres = Detour(80.0, merge_waits_from_mps=8.0), (-3.5, 0.0, 3.5)
+        assert detour.lane(observation, (blockage,), 1, 80.0, centres, "right") is None
+        assert detour.waiting_decel_mps2 == MERGE_WAIT_DECEL_MPS2
+        crossed = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lane_index=0))
+        assert detour.lane(far_behind, (blockage,), 1, 80.0, centres, "right") == 0
+        assert detour.lane(crossed, (blockage,), 1, 80.0, centres, "right") == 0
+        assert detour.waiting_decel_mps2 is None
+        slow = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, speed_mps=7.9))
+        assert Detour(80.0, merge_waits_from_mps=8.0).lane(slow, (blockage,), 1, 80.0, centres, "right") == 0
+        assert Detour(80.0).lane(observation, (blockage,), 1, 80.0, centres, "right") == 0  # off
+
+
 def test_a_vehicle_from_behind_in_a_lane_beside_is_a_follower_charged_only_for_coming_closer():
     vehicles = (
         VehicleSpawn(id="behind_left", lane="left", pos_m=214.0, speed_mps=17.0),
