@@ -3,8 +3,7 @@
 Names are imported on first use (the MCP client is a heavy import): ``from agentic_mpc.agent import Agent``.
 """
 
-from importlib import import_module
-from typing import Any
+from agentic_mpc.lazy_exports import lazy_exports
 
 _EXPORTS = {
     "Agent": "agentic_mpc.agent.agent",
@@ -18,8 +17,4 @@ _EXPORTS = {
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'agentic_mpc.agent' has no attribute {name!r}")
-    return getattr(import_module(_EXPORTS[name]), name)
+__getattr__ = lazy_exports("agentic_mpc.agent", _EXPORTS)

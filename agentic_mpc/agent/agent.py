@@ -30,8 +30,7 @@ Timing modes (``AgentConfig.mode``):
   the simulation reaches t + latency_s, as if the agent had thought for ``latency_s``. With a deterministic
   backend the whole run is deterministic.
 
-The run loop (:mod:`agentic_mpc.run.loop`) wires it to a simulation. What the agent knows of the moment it
-reads over MCP too (:mod:`agentic_mpc.agent.situation`): each step's situation, and the emergency watch.
+The run loop wires it to a simulation; it reads the moment over MCP too (situation, emergency events: situation.py).
 
 Bad input never stops the car: empty, oversized or non-text messages are rejected before they become a step;
 unknown tools, unparseable or schema-violating arguments (including NaN) are answered with a tool error
@@ -60,9 +59,11 @@ from agentic_mpc.agent.backends.base import Backend, BackendError, ToolSpec
 from agentic_mpc.agent.config import AgentConfig, AgentError, WatchRequest, check_message, root_cause
 from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resource
 from agentic_mpc.agent.hosting import ServerHost, target_of
+from agentic_mpc.agent.memory_recall import memory_json, open_session
 from agentic_mpc.agent.messages import Message, MessageHistory, Source
 from agentic_mpc.agent.prompt import restore_note, specification_changes, system_prompt
 from agentic_mpc.agent.report import StepReport, answer_closed
+from agentic_mpc.agent.retrieval import retrieved_message
 from agentic_mpc.agent.situation import EmergencyWatch, read_situation
 from agentic_mpc.agent.tool_calls import ToolRunner, call_key
 from agentic_mpc.agent.transcript import Transcript
@@ -95,13 +96,17 @@ class Agent:
         """Servers besides the controller's (name -> what ``mcp.Client`` connects to): agent/hosting.py."""
         self.sim_clock = sim_clock
         self.history = MessageHistory()
+        self.memory, self.memory_error = open_session(self.config.memory, self.config.transcript_path)
+        self.backend = backend
         self.transcript = Transcript(self.config.transcript_path)
+        if self.memory_error is not None:  # on_error: ignore
+            self.transcript.record("memory_error", tau=None, sim_time_s=None, error=self.memory_error)
         self._runner = ToolRunner(self.transcript, self.config.tool_timeout_s)
         self.tools: tuple[ToolSpec, ...] = ()
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._queue: asyncio.Queue[tuple[Message | WatchRequest, Future[Any]] | None] | None = None
-        self._watch = EmergencyWatch(self.config.alert_distance_m)
+        self._watch = EmergencyWatch()  # the run's emergency events, read over MCP (the run decides them)
         self._watch_queued = False  # realtime: one pending check is enough, however many updates arrived
         self._ready = threading.Event()
         self.warmed = threading.Event()
@@ -205,15 +210,19 @@ class Agent:
         self._initial = initial  # a language model reads tool results as one line against it (tool_calls.py):
         self._runner.initial = initial if getattr(self.backend, "reads_situation", True) else None
         road = await read_json_resource(client, ROAD_URI, missing=logging.INFO)  # None: an older server
+        model = getattr(self.backend, "model", self.backend) if hasattr(self.backend, "rules") else self.backend
+        prompt = getattr(model, "system_prompt", None) or system_prompt  # a model's own (compact_prompt.py)
         system = self.history.append(
             Message(
                 "system",
-                system_prompt(initial, self.tools, self.config.extra_prompt, road=road),
+                prompt(initial, self.tools, self.config.extra_prompt, road=road),
                 data={"initial_specification": initial, "road": road, "tools": [t.to_openai() for t in self.tools]},
                 sim_time_s=self._now(None),
             )
         )
         self.transcript.message(system)
+        if self.config.observation_messages:  # what is over before the agent came does not wake it
+            await self._watch.start(client)
 
     async def _warm(self) -> None:
         """Have the model read the system message now (``AgentConfig.warm_up``; agent/backend_calls.py)."""
@@ -256,6 +265,10 @@ class Agent:
         if self.config.mode == "lockstep":
             future.result(timeout=self.config.lockstep_timeout_s)
         return future
+
+    def memory_json(self) -> dict[str, Any] | None:
+        """What ``agent://memory`` shows (agent/memory_recall.py)."""
+        return memory_json(self.memory, self.memory_error)
 
     def watch(self, sim_time_s: float) -> Future[list[StepReport]]:
         """Lockstep: check ``sumo://emergency-vehicles`` now (the simulation waits) and run a step for each
@@ -301,6 +314,11 @@ class Agent:
         model = getattr(self.backend, "reads_situation", True) and self._client is not None
         if self.config.situation and model:
             incoming = replace(incoming, context=await read_situation(self._client))
+        if self.config.retrieval and model and self._host is not None:  # the passages that bear on it (retrieval.py)
+            incoming = await retrieved_message(incoming, self._host, self.tools,
+                                               (self.history.messages[0].data or {}).get("road"))
+        if self.memory is not None:  # what the passenger said in earlier runs: context lines and data
+            incoming = self.memory.before(incoming, self.transcript, self.history.tau + 1)
         user = self._append(incoming)
         report = StepReport(user.content, user.source or "user", user.sim_time_s, first_tau=user.tau)
         now = partial(self._now, frozen)
@@ -364,6 +382,8 @@ class Agent:
             report.ended = "round_limit"
         report.wall_s = round(budget.elapsed_s(), 3)
         report.last_tau = self.history.tau
+        if self.memory is not None:  # a stated preference or a correction is kept for the next runs
+            self.memory.after(user, report.applied_calls, self.transcript, report.last_tau)
         level = logging.INFO if report.ended == "idle" else logging.WARNING
         logger.log(level, "agent step tau %d-%d ended (%s): %d tool call(s), %d error(s)", report.first_tau,
                    report.last_tau, report.ended, len(report.tool_calls), len(report.errors))

@@ -3,9 +3,10 @@
 - :func:`read_situation` reads ``sumo://ego``, ``sumo://emergency-vehicles`` and ``mpc://specification`` at the
   start of an agent step; :func:`describe_situation` turns them into a few lines that go with the user message
   (``Message.context``) to a language model. The rule-based backend reads only the message itself.
-- :class:`EmergencyWatch` runs the emergency-vehicle detector (:mod:`agentic_mpc.world.emergency`) on what the
-  agent read from ``sumo://emergency-vehicles``: the agent wakes itself on an ambulance coming up behind and
-  on its passing, in-process or across a process boundary alike.
+- :class:`EmergencyWatch` reads the run's emergency-vehicle events (an ambulance coming up behind, its
+  passing: decided once, by the run's detector, :mod:`agentic_mpc.world.emergency`) from
+  ``sumo://emergency-vehicles``; the agent wakes itself on each new one, in-process or across a process
+  boundary alike.
 """
 
 from __future__ import annotations
@@ -15,8 +16,15 @@ from collections.abc import Callable
 from typing import Any
 
 from agentic_mpc.agent.connect import read_json_resource
-from agentic_mpc.mcp.protocol import EGO_URI, EMERGENCY_VEHICLES_URI, ROAD_URI, SPECIFICATION_URI, TRAFFIC_URI
-from agentic_mpc.world.emergency import EmergencyDetector, EmergencyEvent
+from agentic_mpc.mcp.protocol import (
+    EGO_URI,
+    EMERGENCY_VEHICLES_URI,
+    ROAD_URI,
+    SPECIFICATION_URI,
+    TACTICS_URI,
+    TRAFFIC_URI,
+)
+from agentic_mpc.world.emergency import EmergencyEvent
 from agentic_mpc.world.lanes import LEADER_RANGE_M
 
 MAX_EMERGENCY_LISTED = 3
@@ -29,7 +37,8 @@ async def read_situation(client: Any) -> str | None:
     specification = await read_json_resource(client, SPECIFICATION_URI, missing=logging.INFO)
     traffic = await read_json_resource(client, TRAFFIC_URI, missing=logging.INFO)
     road = await read_json_resource(client, ROAD_URI, missing=logging.INFO)
-    return describe_situation(ego, emergency, specification, traffic, road)
+    tactics = await read_json_resource(client, TACTICS_URI, missing=logging.INFO)
+    return describe_situation(ego, emergency, specification, traffic, road, tactics)
 
 
 def _number(value: Any) -> float | None:
@@ -38,8 +47,8 @@ def _number(value: Any) -> float | None:
 
 def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | None,
                        specification: dict[str, Any] | None, traffic: dict[str, Any] | None = None,
-                       road: dict[str, Any] | None = None) -> str | None:
-    """``Current situation (t = 12.3 s): ...`` from the three resources' JSON (any of them may be None)."""
+                       road: dict[str, Any] | None = None, tactics: dict[str, Any] | None = None) -> str | None:
+    """``Current situation (t = 12.3 s): ...`` from the resources' JSON (any of them may be None)."""
     lines: list[str] = []
     t = _number((ego or {}).get("time_s"))
     car = (ego or {}).get("ego") or {}
@@ -66,6 +75,10 @@ def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | N
             lines.append(f"- emergency vehicle {kind!s} '{vehicle.get('id')}' {gap}{where}, in the {lane} lane")
     if specification is not None and specification.get("summary"):
         lines.append(f"- attached: {specification['summary']}")
+    active = (tactics or {}).get("active")
+    if isinstance(active, dict):  # the specification's J1 shaped by a tactic: the agent should know why
+        lines.append(f"- tactic {active.get('rule')}: path tracking follows lane {active.get('followed_lane')} "
+                     f"instead of lane {active.get('tracked_lane')} to pass {active.get('obstacle_id')}")
     if not lines:
         return None
     stamp = f" (t = {t:.1f} s)" if t is not None else ""
@@ -100,24 +113,45 @@ def _leader_line(traffic: dict[str, Any]) -> str:
 
 
 class EmergencyWatch:
-    """The emergency-vehicle detector on the resource ``sumo://emergency-vehicles`` as the agent reads it."""
+    """The run's emergency-vehicle events as the agent reads them from ``sumo://emergency-vehicles`` (its
+    ``events``, every one so far): each new one once. The run decides them; the agent only relays them."""
 
-    def __init__(self, alert_distance_m: float) -> None:
-        self.detector = EmergencyDetector(alert_distance_m)
-        self.last_read_s: float | None = None
+    def __init__(self) -> None:
+        self.seen: int | None = None
+        """How many of the resource's events the agent has had (None: not read yet)."""
+        self._warned = False
+
+    async def start(self, client: Any) -> None:
+        """Skip what is over before the agent came: every event up to the last "passed" (an emergency vehicle
+        approaching now is still said)."""
+        events = await self._read(client)
+        passed = [i for i, event in enumerate(events or []) if event.kind == "emergency_vehicle_passed"]
+        self.seen = passed[-1] + 1 if passed else 0
 
     async def check(self, client: Any) -> list[EmergencyEvent]:
-        """Read the resource once and return the events it brings (none if it cannot be read)."""
+        """Read the resource once and return the events it lists that are new (none if it cannot be read)."""
+        events = await self._read(client)
+        if events is None:
+            return []
+        new = events[self.seen or 0:]
+        self.seen = len(events)
+        return new
+
+    async def _read(self, client: Any) -> list[EmergencyEvent] | None:
         resource = await read_json_resource(client, EMERGENCY_VEHICLES_URI, missing=logging.INFO)
         if resource is None:
-            return []
+            return None
+        items = resource.get("events")
         try:
-            events = self.detector.update_json(resource)
+            if isinstance(items, list):
+                return [EmergencyEvent.from_json(item) for item in items]
+            problem = "no events listed (a server that does not decide them)"
         except ValueError as error:
-            logging.getLogger(__name__).warning("%s: %s", EMERGENCY_VEHICLES_URI, error)
-            return []
-        self.last_read_s = _number(resource.get("time_s"))
-        return events
+            problem = str(error)
+        if not self._warned:  # said once: a realtime agent reads it on every update
+            self._warned = True
+            logging.getLogger(__name__).warning("%s: %s", EMERGENCY_VEHICLES_URI, problem)
+        return None
 
     async def listen(self, client: Any, wake: Callable[[], None]) -> str:
         """Call ``wake`` on every update of the resource the server announces (subscribed over MCP). Returns

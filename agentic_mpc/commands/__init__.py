@@ -132,15 +132,20 @@ def with_agent_settings(scenario, pairs: list[tuple[str, str]]):  # (Scenario, .
         if key == "backend":
             continue
         try:
-            settings[key] = yaml.safe_load(value) if value.strip() else ""
+            parsed = yaml.safe_load(value) if value.strip() else ""
         except yaml.YAMLError as error:
             raise ValueError(f"--agent {key}: the value is not YAML ({error})") from None
         if key in TEXT_SETTINGS:
-            settings[key] = value  # a model name such as 1.5 or a path stays text
+            parsed = value  # a model name such as 1.5 or a path stays text
+        if "." in key:  # a nested setting: --agent memory.profile=alice
+            section, _, name = key.partition(".")
+            settings[section] = {**(settings.get(section) or {}), name: parsed}
+        else:
+            settings[key] = parsed
     return scenario.model_copy(update={"agent": validated_agent_settings(settings, "--agent ")})
 
 
-TEXT_SETTINGS = ("model", "base_url", "api_key_env", "extra_prompt")
+TEXT_SETTINGS = ("model", "base_url", "api_key_env", "extra_prompt", "memory.profile", "memory.file")
 """Agent settings whose values are text even where they read as YAML numbers."""
 
 

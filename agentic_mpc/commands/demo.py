@@ -33,6 +33,7 @@ def run(args: argparse.Namespace) -> int:
 
     from agentic_mpc import plots
     from agentic_mpc.scenario.passing import analyse_pass
+    from agentic_mpc.scenario.report import obstacle_pass_columns
     from agentic_mpc.scenario.runner import drive
     from agentic_mpc.scenario.schema import load_scenario
     from agentic_mpc.scenario.yaml_source import ScenarioFileError
@@ -72,10 +73,7 @@ def run(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     table.to_csv(args.out / "results.csv", index=False)
     summary = table.groupby("variant", sort=False).agg(
-        left=("obstacle_side", lambda s: int((s == "left").sum())),
-        right=("obstacle_side", lambda s: int((s == "right").sum())),
-        hit=("obstacle_side", lambda s: int((s == "hit").sum())),
-        min_clearance_m=("min_obstacle_clearance_m", "min"),
+        **obstacle_pass_columns("left", "right"),
         max_recovery_s=("recovery_s", "max"),
         controller_ms=("controller_ms_median", "median"),
     )

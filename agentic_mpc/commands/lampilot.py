@@ -19,6 +19,7 @@ Exit status: 0 every case ran (whatever it scored), 1 some run failed or crashed
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import hashlib
 import sys
 from pathlib import Path
@@ -45,6 +46,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--tasks", nargs="+", default=None, metavar="NAME", help="task file stems (default: all)")
     parser.add_argument("--per-task", type=positive_int, default=None, metavar="N",
                         help="N cases of each task, spread over its phrasings and scenes in a fixed order")
+    parser.add_argument("--phrasings", type=Path, default=None, metavar="FILE",
+                        help="a YAML mapping of task names to lists of your own phrasings: those tasks only, each "
+                             "with these commands instead of the file's (the scenes stay the benchmark's)")
+    parser.add_argument("--scenes", type=positive_int, default=None, metavar="N",
+                        help="only the first N scenes (samples) of each task")
+    parser.add_argument("--speed-requests", choices=("lawful", "as_asked"), default="lawful",
+                        help="lawful: speeds up to the road's limit (31.29 m/s), the agent says why it keeps to it; "
+                             "as_asked: up to the vehicle's top speed (40 m/s), as LaMPilot's highway-env allows")
     add_backend_flags(parser)
     parser.add_argument("--agent", type=agent_setting, action="append", default=[], metavar="KEY=VALUE",
                         help="any agent setting (as a scenario's agent:), e.g. mode=realtime or latency_s=1")
@@ -65,7 +74,33 @@ def agent_for(args: argparse.Namespace) -> dict:
     validated_agent_settings(settings)  # a bad flag is named as the flag
     for key, value in args.agent:
         settings[key] = yaml.safe_load(value) if value.strip() else ""
-    return validated_agent_settings(settings, "--agent ").model_dump(mode="json")
+    validated = validated_agent_settings(settings, "--agent ")
+    if "toolset" in type(validated).model_fields and "toolset" not in settings:
+        settings["toolset"] = "lampilot"  # a model is shown LaMPilot's manoeuvres, not only the paper's tools
+        validated = validated_agent_settings(settings, "--agent ")
+    return validated.model_dump(mode="json")
+
+
+def with_phrasings(tasks: list, path: Path) -> list:
+    """The tasks named in the phrasings file ``path`` (YAML: task name -> list of phrasings), each with those
+    phrasings as its commands. Raises CommandInputError naming the file and the entry."""
+    import yaml
+
+    try:
+        phrasings = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError) as error:
+        raise CommandInputError(f"--phrasings {path}: cannot read it: {error}") from error
+    if not isinstance(phrasings, dict):
+        raise CommandInputError(f"--phrasings {path}: a mapping of task names to lists of phrasings")
+    known = {task.name: task for task in tasks}
+    problems = [f"--phrasings {path}: {name!r}: " + ("no such task in the directory" if name not in known else
+                "a non-empty list of phrasings (strings)")
+                for name, commands in phrasings.items()
+                if name not in known or not isinstance(commands, list) or not commands
+                or not all(isinstance(c, str) and c.strip() for c in commands)]
+    if problems:
+        raise CommandInputError("; ".join(problems))
+    return [dataclasses.replace(known[name], commands=tuple(commands)) for name, commands in phrasings.items()]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -78,6 +113,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         agent = agent_for(args)
         tasks = load_tasks(args.directory, args.tasks)
+        if args.phrasings is not None:
+            tasks = with_phrasings(tasks, args.phrasings)
+        if args.scenes is not None:
+            tasks = [dataclasses.replace(task, samples=task.samples[: args.scenes]) for task in tasks]
     except (ValueError, CommandInputError) as error:
         problems = error.problems if isinstance(error, LampilotInputError) else [str(error)]
         print("agentic-mpc lampilot: nothing was run:\n" + "\n".join(f"  {p}" for p in problems), file=sys.stderr)
@@ -92,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
                                 "reason": "not supported: the scene needs junctions"})
             continue
         case_file = args.out / "cases" / case.task.name / f"{case.case_id}.json"
-        write_case(case, agent, case_file)
+        write_case(case, agent, case_file, args.speed_requests)
         digest = hashlib.sha256(case_file.read_bytes()).hexdigest()[:16]
         jobs.append(BatchJob(case.task.name, case.case_id, case.sample.seed, case_file.resolve(), digest))
     try:

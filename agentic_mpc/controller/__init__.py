@@ -3,8 +3,7 @@
 Names are imported on first use, so that reading a configuration does not compile the kernels.
 """
 
-from importlib import import_module
-from typing import Any
+from agentic_mpc.lazy_exports import lazy_exports
 
 _EXPORTS = {
     "MPPIConfig": "agentic_mpc.controller.config",
@@ -13,8 +12,4 @@ _EXPORTS = {
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'agentic_mpc.controller' has no attribute {name!r}")
-    return getattr(import_module(_EXPORTS[name]), name)
+__getattr__ = lazy_exports("agentic_mpc.controller", _EXPORTS)

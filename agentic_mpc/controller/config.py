@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import Field, model_validator
 
+from agentic_mpc import removed_options
 from agentic_mpc.frozen_config import FrozenConfig
 
 
@@ -15,6 +16,8 @@ class MPPIConfig(FrozenConfig):
     The paper fixes L = 4, S = 256 and the standard deviations; it gives neither the horizon nor the
     temperature. The defaults here were chosen by the closed-loop measurements in docs/cost-design.md.
     """
+
+    removed_fields: ClassVar[dict[str, str]] = removed_options.CONTROLLER
 
 
     horizon: int = Field(50, ge=2, le=1000, description="prediction horizon H in steps (50 = 2 s)")
@@ -50,14 +53,6 @@ class MPPIConfig(FrozenConfig):
         description="with pinned noise: below this speed, when the specification asks for motion, u(0) gets the "
         "paper's noise after all (a standing car's warm-started brake would otherwise hold every sample still: "
         "braking does nothing at 0 m/s, so no cost ever moves it; docs/traffic.md); None: always pinned",
-    )
-    standstill_winner: bool = Field(
-        False,
-        description="with free_start_below_mps: standing, asked to move, and the ESS band's average holding the car "
-        "still, one sample may take all the weight (the still samples all cost the same, so the band's lower bound "
-        "gave them most of the weight of any way out found). Off: over 239 decided runs (seeds 1800-2019) it passed as "
-        "many stopped cars, and 4 runs had a contact at fault against 2, once its own first move into a car beside "
-        "(docs/traffic.md, \"Leaving a standstill\")",
     )
     pinned_level_share: float = Field(
         1.0,

@@ -126,11 +126,6 @@ def rollout_costs(
     lane_line_offsets,
     lane_line_params,
     rims,
-    neighbour_centres,
-    neighbour_tan,
-    neighbour_lane,
-    neighbour_lane_tan,
-    neighbour_params,
     work,
     costs,
 ):
@@ -246,30 +241,17 @@ def rollout_costs(
             hx, hy = disc_headings[o, k, 0], disc_headings[o, k, 1]
             radius, weight, body = disc_params[o, 0], disc_params[o, 1], disc_params[o, 2]
             half_length, half_width = disc_params[o, 3], disc_params[o, 4]
-            side, gap_now, inv_ramp = disc_params[o, 5], disc_params[o, 6], disc_params[o, 7]
-            touch_weight, touch_share2, inv_closing = disc_params[o, 8], disc_params[o, 9], disc_params[o, 10]
+            touch_weight, touch_share2, inv_closing = disc_params[o, 5], disc_params[o, 6], disc_params[o, 7]
             touching = 0
-            if side == 0.0:  # the branch outside the sample loop: inside, it cost the disc pass 6 %
-                for i in range(n_samples):
-                    dx = x[i] - cx
-                    dy = y[i] - cy
-                    d2 = dx * dx + dy * dy
-                    bodies = _body_radius(body, half_length, half_width, c[i], s[i], hx, hy)
-                    r = max(radius, bodies)
-                    r2 = r * r
-                    costs[i] += weight * (2.0 - d2 / r2) if d2 < r2 else 0.0
-                    touching += 1 if d2 < touch_share2 * bodies * bodies else 0
-            else:  # a follower's (MovingDisc.follower_side): as far as the ego came closer to its line
-                for i in range(n_samples):
-                    dx = x[i] - cx
-                    dy = y[i] - cy
-                    d2 = dx * dx + dy * dy
-                    bodies = _body_radius(body, half_length, half_width, c[i], s[i], hx, hy)
-                    r = max(radius, bodies)
-                    r2 = r * r
-                    closer = min(1.0, max(0.0, (gap_now - side * (hy * dx - hx * dy)) * inv_ramp))
-                    costs[i] += weight * (2.0 - d2 / r2) * closer if d2 < r2 else 0.0
-                    touching += 1 if d2 < touch_share2 * bodies * bodies else 0
+            for i in range(n_samples):
+                dx = x[i] - cx
+                dy = y[i] - cy
+                d2 = dx * dx + dy * dy
+                bodies = _body_radius(body, half_length, half_width, c[i], s[i], hx, hy)
+                r = max(radius, bodies)
+                r2 = r * r
+                costs[i] += weight * (2.0 - d2 / r2) if d2 < r2 else 0.0
+                touching += 1 if d2 < touch_share2 * bodies * bodies else 0
             if touching > 0 and touch_weight > 0.0:
                 # The other's velocity over this stage (the first stage's: to the next), and its lane's direction:
                 # that of its predicted motion (along its lane), else its heading.
@@ -285,8 +267,6 @@ def rollout_costs(
                     bodies = _body_radius(body, half_length, half_width, c[i], s[i], hx, hy)
                     contact = _contact(dx * dx + dy * dy, bodies, touch_weight, touch_share2, inv_closing, dx, dy,
                                        v[i] * c[i] - vox, v[i] * s[i] - voy, tx, ty)
-                    if side != 0.0:
-                        contact *= min(1.0, max(0.0, (gap_now - side * (hy * dx - hx * dy)) * inv_ramp))
                     costs[i] += contact
         for e in range(edge_ref.shape[0]):
             ex, ey, tx, ty = edge_ref[e, k, 0], edge_ref[e, k, 1], edge_tan[e, k, 0], edge_tan[e, k, 1]
@@ -302,24 +282,6 @@ def rollout_costs(
             for i in range(n_samples):
                 shortfall = max(0.0, min(gap_s * v[i] + d0, cap) - (tx * (lx - x[i]) + ty * (ly - y[i])))
                 costs[i] += gap_w * (knee * (2.0 * shortfall - knee) if shortfall > knee else shortfall * shortfall)
-        for o in range(neighbour_centres.shape[0]):  # J0's lane-entry gap (LaneNeighbour)
-            cx, cy = neighbour_centres[o, k, 0], neighbour_centres[o, k, 1]
-            tx, ty = neighbour_tan[o, k, 0], neighbour_tan[o, k, 1]
-            lx, ly = neighbour_lane[o, k, 0], neighbour_lane[o, k, 1]
-            nx, ny = neighbour_lane_tan[o, k, 0], neighbour_lane_tan[o, k, 1]
-            reach, contact, speed = neighbour_params[o, 0], neighbour_params[o, 1], neighbour_params[o, 2]
-            depth_now, gap_s, d0 = neighbour_params[o, 3], neighbour_params[o, 4], neighbour_params[o, 5]
-            weight, knee, inv_ramp = neighbour_params[o, 6], neighbour_params[o, 7], neighbour_params[o, 8]
-            for i in range(n_samples):
-                entered = reach - abs(nx * (y[i] - ly) - ny * (x[i] - lx)) - depth_now  # deeper in its lane than now
-                if entered > 0.0:
-                    along = tx * (x[i] - cx) + ty * (y[i] - cy)  # > 0: the ego ahead of it
-                    if along >= 0.0:
-                        shortfall = max(0.0, speed * gap_s + d0 - (along - contact))
-                    else:
-                        shortfall = max(0.0, v[i] * gap_s + d0 - (-along - contact))
-                    huber = knee * (2.0 * shortfall - knee) if shortfall > knee else shortfall * shortfall
-                    costs[i] += weight * min(1.0, entered * inv_ramp) * huber
     for o in range(queue_rooms.shape[0]):  # J0's room to pull out behind a blockage, on the plan's last state
         cx, cy, tx, ty = queue_rooms[o, 0], queue_rooms[o, 1], queue_rooms[o, 2], queue_rooms[o, 3]
         radius, turn_radius, cos_g, sin_g = queue_rooms[o, 4], queue_rooms[o, 5], queue_rooms[o, 6], queue_rooms[o, 7]

@@ -169,13 +169,6 @@ class FourierMPPI:
         z = self.sample(free_start)
         costs, fast = self.costs(prepared, state, z)
         weights, optimum = self.average(costs, z)
-        if free_start and self.config.standstill_winner and weights.found and fourier.value_at_start(optimum)[1] <= 0:
-            # Standing, asked to move, and the band's average holds the car still: one sample may take all the
-            # weight. The still samples all cost the same (braking a standing car changes nothing), so the ESS
-            # band's lower bound gave them most of the weight of any way out found, and the way out was lost the
-            # next step: the ego stood behind a stopped car with the lane beside clear. Off by default: a single
-            # sample's first move is only as safe as J0's covers (docs/traffic.md, "Leaving a standstill").
-            weights, optimum = self.average(costs, z, keep_winner=True)
         if weights.found:
             self.temperature = weights.temperature
         else:  # every sample's cost was NaN or infinite: keep the previous plan rather than average garbage
@@ -216,19 +209,17 @@ class FourierMPPI:
         return (self._noise_map is not None and below is not None and float(state[3]) < below
                 and specification.asks_for_motion)
 
-    def average(self, costs: np.ndarray, z: np.ndarray, keep_winner: bool = False) -> tuple[Weighting, np.ndarray]:
+    def average(self, costs: np.ndarray, z: np.ndarray) -> tuple[Weighting, np.ndarray]:
         """This step's weights and the weighted mean of the samples ``z`` (2, 2L+1, S); the mean is
-        meaningless when ``Weighting.found`` is False (no finite cost). ``keep_winner``: the ESS band's lower
-        bound is lifted (one sample may take all the weight; see :meth:`step`)."""
+        meaningless when ``Weighting.found`` is False (no finite cost)."""
         c = self.config
         if not self._fast or c.elite_samples is not None:
-            weighting_ = self.weights(costs, self.temperature, keep_winner)
+            weighting_ = self.weights(costs, self.temperature)
             if weighting_.weights is None:
                 return weighting_, self.mean
             return weighting_, (z * weighting_.weights).sum(axis=-1)  # not einsum: its SIMD order is the CPU's
         optimum = np.empty((2, c.coefficients))
         low, high = c.ess_band if c.ess_band is not None else (0.0, 0.0)
-        low = 1.0 / c.samples if keep_winner else low
         found, cost_min, temperature, ess = weighting.weigh_and_average(
             costs, z, self.temperature, low * c.samples, high * c.samples, c.ess_band is not None, self._weights, optimum
         )
@@ -242,7 +233,7 @@ class FourierMPPI:
         rolled = self.rollouts(np.asarray(state, dtype=np.float64), z)
         return np.stack([rolled.x_m[:, 0], rolled.y_m[:, 0], rolled.phi_rad[:, 0], rolled.v_mps[:, 0]], axis=1)
 
-    def weights(self, costs: np.ndarray, temperature: float | None = None, keep_winner: bool = False) -> Weighting:
+    def weights(self, costs: np.ndarray, temperature: float | None = None) -> Weighting:
         """Normalised MPPI weights exp(-(J - min J) / T) (sum 1); ``weights`` is None if no sample has a
         finite cost. ``temperature`` is where the ESS band's search starts (or the fixed T without a band)."""
         c = self.config
@@ -256,7 +247,6 @@ class FourierMPPI:
             shifted[np.argpartition(shifted, c.elite_samples)[c.elite_samples:]] = np.inf
         if c.ess_band is not None:
             low, high = c.ess_band
-            low = 1.0 / len(costs) if keep_winner else low
             temperature, _ = weighting.temperature_for_band(shifted, temperature, low * len(costs), high * len(costs))
         weights = np.exp(-shifted / temperature)
         weights /= weights.sum()

@@ -19,6 +19,12 @@ from agentic_mpc.lampilot.dataset import Case, Sample, Task
 from agentic_mpc.lampilot.scenes import COMMAND_DELAY_S, WARMUP_S, case_scenario
 
 LANE_WIDTH_M = 4.0
+VEHICLE_MAX_SPEED_MPS = 40.0
+"""highway-env's vehicles' top speed (``Vehicle.MAX_SPEED``): what LaMPilot's scenes let a command ask for, past the
+road's 70 mph (31.29 m/s), which highway-env does not enforce (its ``inc_abs_speed32`` asks for 32 m/s)."""
+SPEED_REQUESTS = ("lawful", "as_asked")
+"""lawful (the default): the tools accept up to the road's limit; as_asked: up to the vehicle's top speed, as
+LaMPilot's benchmark does, to compare with its published numbers."""
 
 
 def read_case(case_file: Path) -> tuple[Case, dict[str, Any]]:
@@ -31,11 +37,13 @@ def read_case(case_file: Path) -> tuple[Case, dict[str, Any]]:
     return Case(task, data["command_index"], data["sample_index"]), data["agent"]
 
 
-def write_case(case: Case, agent: dict[str, Any], path: Path) -> None:
+def write_case(case: Case, agent: dict[str, Any], path: Path, speed_requests: str = "lawful") -> None:
     sample = case.sample
     data = {"task": case.task.name, "task_file": str(case.task.path), "group": case.task.group,
             "command_index": case.command_index, "command": case.command, "sample_index": case.sample_index,
             "sample": {"env": sample.env, "eval": sample.eval, "seed": sample.seed}, "agent": agent}
+    if speed_requests != "lawful":  # lawful case files stay as they were (a resumed batch keeps its runs)
+        data["speed_requests"] = speed_requests
     path.parent.mkdir(parents=True, exist_ok=True)
     text = json.dumps(data, indent=1, sort_keys=True, default=str)
     if not path.is_file() or path.read_text(encoding="utf-8") != text:  # unchanged: the batch keeps its runs
@@ -78,7 +86,9 @@ def run_case(case_file: Path, variant: str, seed: int, out_dir: Path) -> dict[st
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     world = build_world(scenario)
-    loop = build_loop(scenario, world, transcript_path=out_dir / "transcript.jsonl")
+    as_asked = json.loads(Path(case_file).read_text(encoding="utf-8")).get("speed_requests") == "as_asked"
+    options = {"max_speed_mps": VEHICLE_MAX_SPEED_MPS} if as_asked else None  # the tools' bound, said to the agent
+    loop = build_loop(scenario, world, transcript_path=out_dir / "transcript.jsonl", server_options=options)
     command_at_s = WARMUP_S + COMMAND_DELAY_S
     road = world.lanes()
     judge: Judge | None = None

@@ -91,6 +91,12 @@ INITIAL_SPECIFICATION_URI = "mpc://specification/initial"
 """The specification the car started with."""
 POOL_URI = "mpc://pool"
 """Every primitive objective family and its parameters."""
+TACTICS_URI = "mpc://tactics"
+"""The driving tactics in force (rules by name) and the one changing J1's reference now, if any: the lane it
+follows instead of the tracked one, past which obstacle, since when (``agentic_mpc/tactics``)."""
+MEMORY_URI = "agent://memory"
+"""The embedded agent's memory of its passenger profile (``agent: {memory: ...}``, agent/memory.py): the file, the
+standing preferences and every entry; ``{"profile": null}`` without memory."""
 
 
 def _non_finite(value: Any, path: str = "") -> str | None:

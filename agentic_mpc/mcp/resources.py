@@ -3,7 +3,7 @@
 ``sumo://ego``, ``sumo://traffic``, ``sumo://emergency-vehicles``, ``sumo://obstacles`` are slices of the
 world's latest observation; ``sumo://vehicle/{vehicle_id}`` is one road user by id; ``sumo://road`` the
 road (:mod:`agentic_mpc.mcp.road`); ``mpc://specification``, ``mpc://specification/initial`` and
-``mpc://pool`` the controller's side.
+``mpc://pool`` the controller's side; ``agent://memory`` the embedded agent's memory of its passenger.
 """
 
 # No `from __future__ import annotations`: the SDK reads the resource functions' annotations at runtime.
@@ -19,10 +19,12 @@ from agentic_mpc.mcp.protocol import (
     EGO_URI,
     EMERGENCY_VEHICLES_URI,
     INITIAL_SPECIFICATION_URI,
+    MEMORY_URI,
     OBSTACLES_URI,
     POOL_URI,
     ROAD_URI,
     SPECIFICATION_URI,
+    TACTICS_URI,
     TRAFFIC_URI,
     VEHICLE_URI_TEMPLATE,
 )
@@ -38,16 +40,18 @@ OBSERVATION_SLICES = (
     (EGO_URI, "ego", "The ego vehicle: position, heading, speed, lane.", {"ego": "ego", "collisions": "collisions"}),
     (TRAFFIC_URI, "traffic", "Every other road user near the ego.", {"vehicles": "traffic"}),
     (EMERGENCY_VEHICLES_URI, "emergency-vehicles",
-     "Emergency vehicles (ambulances, fire engines, police) near the ego.", {"emergency_vehicles": "emergency_vehicles"}),
+     ("Emergency vehicles (ambulances, fire engines, police) near the ego, and the run's events so far (one "
+      "approaching from behind, passed)."), {"emergency_vehicles": "emergency_vehicles", "events": "emergency_events"}),
     (OBSTACLES_URI, "obstacles", "Static obstacles on the road.", {"obstacles": "obstacles"}),
 )
-_LISTS = {"traffic", "emergency_vehicles", "obstacles", "collisions"}
+_LISTS = {"traffic", "emergency_vehicles", "emergency_events", "obstacles", "collisions"}
 """Observation keys that are lists: an observation without them reads as empty, not null."""
 
 
 def register_resources(server: MCPServer, tools: ControllerTools, latest_observation: ObservationSource,
                        lane_index: LaneIndex | None = None, jurisdiction: str | None = None,
-                       road_type: str | None = None) -> None:
+                       road_type: str | None = None, tactics: Callable[[], dict[str, Any]] | None = None,
+                       memory: Callable[[], dict[str, Any] | None] | None = None) -> None:
     """Register every resource on ``server``."""
     slot = tools.slot
     for uri, name, description, keys in OBSERVATION_SLICES:
@@ -92,6 +96,18 @@ def register_resources(server: MCPServer, tools: ControllerTools, latest_observa
                      mime_type="application/json")
     def pool() -> str:
         return to_json({"pool": describe_pool()})
+
+    @server.resource(TACTICS_URI, name="tactics", description="The driving tactics in force and the one that "
+                     "steers path tracking (J1) to another lane now, if any: rule, lanes, obstacle, since when.",
+                     mime_type="application/json")
+    def tactics_now() -> str:
+        return to_json(tactics() if tactics is not None else {"rules": [], "active": None})
+
+    @server.resource(MEMORY_URI, name="memory", description="The agent's memory of this passenger across runs: "
+                     "profile, file, standing preferences and entries (stated preferences, corrections).",
+                     mime_type="application/json")
+    def memory_now() -> str:
+        return to_json((memory() if memory is not None else None) or {"profile": None, "entries": []})
 
 
 def _observation_slice(latest_observation: ObservationSource, keys: dict[str, str]) -> Callable[[], str]:

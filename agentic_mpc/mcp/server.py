@@ -83,6 +83,7 @@ from agentic_mpc.mcp.protocol import (
     OBSTACLES_URI,
     ROAD_URI,
     SPECIFICATION_URI,
+    TACTICS_URI,
     TRAFFIC_URI,
 )
 from agentic_mpc.mcp.resources import ObservationSource, register_resources, to_json
@@ -161,7 +162,7 @@ class AgenticMPCServer:
     every simulation step (any thread) to notify listening clients. ``lane_index`` (the world's
     ``lane_index_of``) gives ``sumo://road`` the world's lane indices, ``jurisdiction`` (the scenario's: ``JP``,
     ``DE``, ...) whose traffic rules apply there, ``road_type`` (``motorway``, ``rural``, ``urban``) which of its
-    speed limits.
+    speed limits, ``tactics`` (the run's tactics layer's ``to_json``) what ``mpc://tactics`` reads.
     """
 
     def __init__(
@@ -176,10 +177,14 @@ class AgenticMPCServer:
         lane_index: LaneIndex | None = None,
         jurisdiction: str | None = None,
         road_type: str | None = None,
+        tactics: Callable[[], dict[str, Any]] | None = None,
+        memory: Callable[[], dict[str, Any] | None] | None = None,
     ) -> None:
         self.tools = tools
         self.lane_index = lane_index
         self.latest_observation = latest_observation
+        if max_speed_mps is not None:  # every tool accepts up to it, not only the schemas say so
+            tools.speed_ceiling_mps = float(max_speed_mps)
         self.max_speed_mps = float(max_speed_mps if max_speed_mps is not None else tools.road().speed_limit_mps)
         if not (math.isfinite(self.max_speed_mps) and self.max_speed_mps > 0):
             raise ValueError(f"max_speed_mps must be a positive number, got {self.max_speed_mps!r}")
@@ -195,7 +200,8 @@ class AgenticMPCServer:
             log_level="WARNING",
         )
         self.server.on_tool_call = on_tool_call
-        register_resources(self.server, tools, latest_observation, lane_index, jurisdiction, road_type)
+        register_resources(self.server, tools, latest_observation, lane_index, jurisdiction, road_type, tactics,
+                           memory)
         tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
 
     @property
@@ -235,6 +241,11 @@ class AgenticMPCServer:
         return built
 
     # ------------------------------------------------------------------ notifications
+    def publish_tactics(self) -> None:
+        """Notify listeners that ``mpc://tactics`` changed (a tactic started or ended)."""
+        if self.bus.listener_count:
+            self.bus.publish_threadsafe(ResourceUpdated(uri=TACTICS_URI))
+
     def publish_observation(self, observation: dict[str, Any] | None = None) -> None:
         """Notify listeners that the observation resources changed (call after each step, from any thread).
 

@@ -102,6 +102,9 @@ class ControllerTools(ManeuverTools):
         self._pending: list[tuple[float, int, PendingChange]] = []
         self._pending_lock = threading.Lock()
         self._sequence = itertools.count()
+        self.speed_ceiling_mps: float | None = None
+        """The fastest speed the tools accept instead of the road's limit (a benchmark that asks past it, as
+        LaMPilot's does: ``agentic-mpc lampilot --speed-requests as_asked``); None: the road's limit."""
 
     # ------------------------------------------------------------------ road
     def road(self) -> RoadLanes:
@@ -109,7 +112,7 @@ class ControllerTools(ManeuverTools):
         road = value if isinstance(value, RoadLanes) else RoadLanes(*value)
         if not math.isfinite(road.speed_limit_mps) or road.speed_limit_mps <= 0:
             raise ToolCallError(f"the lane source gave an invalid speed limit {road.speed_limit_mps!r}")
-        return road
+        return road if self.speed_ceiling_mps is None else road._replace(speed_limit_mps=self.speed_ceiling_mps)
 
     def situation(self) -> Situation:
         """The ego's situation now; a ToolCallError where the tools were given no situation source."""

@@ -3,7 +3,6 @@
 from agentic_mpc.primitives.base import (
     Blockage,
     LaneLines,
-    LaneNeighbour,
     Leader,
     MovingDisc,
     Primitive,
@@ -26,7 +25,6 @@ __all__ = [
     "Circle",
     "FollowingDistance",
     "LaneLines",
-    "LaneNeighbour",
     "Leader",
     "Mandatory",
     "MovingDisc",

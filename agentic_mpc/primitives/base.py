@@ -82,13 +82,6 @@ class MovingDisc:
     """The part of the cover that is the two bodies (with the clearance margin), which grows with the ego's
     angle; the disc's radius is ``max(radius_m, body_radius_m + growth)``. None: ``radius_m`` (a cover wider than
     the bodies, such as one keeping the ego's centre out of a lane, grows only once the body's reaches past it)."""
-    follower_side: float = 0.0
-    """+1 (left) or -1 (right) for a vehicle closing in from behind in a lane beside: while the ego stands (below
-    ``STANDING_PLAN_MPS``), J0 charges a stage inside only as far as the ego came closer to the vehicle's line than
-    ``follower_gap_now_m``, in full from ``FOLLOWER_APPROACH_RAMP_M`` closer; 0, or a moving ego: every stage inside.
-    Set by the SUMO surroundings with ``followers_charge_approach`` (off by default; docs/traffic.md, "A follower
-    passing a standing car": predicted through a standing ego's place, a passing truck made it race, into it)."""
-    follower_gap_now_m: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,30 +116,6 @@ class Blockage:
     radius_m: float
     lateral_offset_m: float = 0.0
 
-
-@dataclass(frozen=True, slots=True)
-class LaneNeighbour:
-    """A vehicle in a lane beside the ego's, for J0's lane-entry gap (:mod:`agentic_mpc.primitives.lane_entry`).
-
-    ``centres`` (H, 2) at stages k = 1..H, ``tangents`` its lane's direction there (the gap is measured along it);
-    ``lane_points``, ``lane_tangents`` (H, 2): its lane's centre line where the ego is predicted at its speed now (how
-    deep a plan is in the lane; from the vehicle's place, 20 m along a 200 m curve, the line is 1 m off);
-    ``lane_reach_m``: half the lane's width + the ego's half width; ``contact_m``: half its length + the ego's;
-    ``entry_depth_now_m``: how far the ego's body is in that lane now (negative: outside).
-    """
-
-    centres: FloatArray
-    tangents: FloatArray
-    lane_points: FloatArray
-    lane_tangents: FloatArray
-    lane_reach_m: float
-    contact_m: float
-    speed_mps: float
-    entry_depth_now_m: float
-
-
-FOLLOWER_APPROACH_RAMP_M = 0.05
-"""A follower's disc charges in full this much closer (short: edging closer a little each step must not be cheap)."""
 
 STANDING_PLAN_MPS = 1.0
 """A plan that ends slower than this stands (J0's lane lines, J2's rims), and a car at least this fast moves: a car
@@ -184,8 +153,6 @@ class Surroundings:
     lane_lines: LaneLines | None = None
     """The lines between lanes: a plan that ends standing across one pays (a yield that stopped straddling two
     lanes was struck by the ambulance it made way for: docs/traffic.md)."""
-    lane_neighbours: tuple[LaneNeighbour, ...] = ()
-    """Vehicles in the lanes beside the ego's: a plan that enters one's lane keeps a time gap to it."""
     reference_speed_cap_mps: float | None = None
     """J1's reference speed is at most this: coming up to a queue in the lane J1 follows, a speed it can stop
     from with room to pull out (the horizon alone sees 2 s ahead: at 15 m/s, less than the way to stop)."""
@@ -225,9 +192,9 @@ class FusedArrays(NamedTuple):
     # previous ab, steering smoothness weight, throttle/brake smoothness weight, brake effort weight
     disc_centres: FloatArray  # (n_discs, H, 2)
     disc_headings: FloatArray  # (n_discs, H, 2) unit headings the cover assumes the ego aligned with
-    disc_params: FloatArray  # (n_discs, 11): cover radius, weight per stage, body radius, ego half length, half
-    # width (both 0: the radius does not depend on the ego's heading; see MovingDisc), follower side, its lateral
-    # gap now, 1 / ramp, contact weight per stage, contact share squared, 1 / contact closing speed
+    disc_params: FloatArray  # (n_discs, 8): cover radius, weight per stage, body radius, ego half length, half
+    # width (both 0: the radius does not depend on the ego's heading; see MovingDisc), contact weight per stage,
+    # contact share squared, 1 / contact closing speed
     edge_ref: FloatArray  # (n_edges, H, 2) points on the road edges
     edge_tan: FloatArray  # (n_edges, H, 2)
     edge_params: FloatArray  # (n_edges, 3): side sign (+1 left edge, -1 right edge), margin, weight
@@ -245,11 +212,6 @@ class FusedArrays(NamedTuple):
     # half width
     rims: FloatArray  # (n, 6): circle x, y, outer radius (J2's + its rim), rim depth m, weight on the last stage,
     # standing speed m/s
-    neighbour_centres: FloatArray  # (n, H, 2) a LaneNeighbour's centres, then its lane's tangents there
-    neighbour_tan: FloatArray
-    neighbour_lane: FloatArray  # (n, H, 2) its lane's centre line where the ego is predicted, then the tangents
-    neighbour_lane_tan: FloatArray
-    neighbour_params: FloatArray  # (n, 9): reach, contact, speed, depth now, time gap s, d0 m, weight, knee m, 1/ramp
 
 
 @dataclass(slots=True)
@@ -264,16 +226,14 @@ class FusedTerms:
     lateral: list[tuple[float, float, float, FloatArray, FloatArray]] = field(default_factory=list)
     limits: tuple[float, ...] = (0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     discs: list[tuple[FloatArray, FloatArray, float, ...]] = field(default_factory=list)
-    """Per disc: centres, headings, cover radius, weight, body radius, ego half length, half width, follower side,
-    the follower's lateral gap now, 1 / its ramp (:class:`MovingDisc`), contact weight, share squared, 1 / closing."""
+    """Per disc: centres, headings, cover radius, weight, body radius, ego half length, half width
+    (:class:`MovingDisc`), contact weight, share squared, 1 / closing."""
     edges: list[tuple[FloatArray, FloatArray, float, float, float]] = field(default_factory=list)
     leaders: list[tuple[FloatArray, FloatArray, float, float]] = field(default_factory=list)
     time_gap: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 1.0, 0.0)
     queue_rooms: list[tuple[float, ...]] = field(default_factory=list)
     lane_lines: tuple[FloatArray, tuple[float, ...], tuple[float, ...]] | None = None
     """The (n, 4) table, the offsets and the params of :class:`FusedArrays`' lane-line term."""
-    neighbours: list[tuple[FloatArray, FloatArray, FloatArray, FloatArray, tuple[float, ...]]] = field(
-        default_factory=list)  # per LaneNeighbour: centres, tangents, lane points, lane tangents, the 9 params
 
     def build(self) -> FusedArrays:
         # Called every control step: the empty and single-item cases (most of them) allocate nothing new, and
@@ -305,7 +265,7 @@ class FusedTerms:
             limits=np.array(self.limits, dtype=np.float64),  # holds the previous input: new every step
             disc_centres=stack([c for c, *_ in self.discs]),
             disc_headings=stack([headings for _, headings, *_ in self.discs]),
-            disc_params=table([d[2:] for d in self.discs], 11),
+            disc_params=table([d[2:] for d in self.discs], 8),
             edge_ref=stack([p for p, _, _, _, _ in self.edges]),
             edge_tan=stack([t for _, t, _, _, _ in self.edges]),
             edge_params=table([(side, margin, w) for _, _, side, margin, w in self.edges], 3),
@@ -319,11 +279,6 @@ class FusedTerms:
             lane_line_offsets=_table((offsets,), len(offsets))[0],
             lane_line_params=_table((line_params,), 5)[0],
             rims=table(self.rims, 6),
-            neighbour_centres=stack([n[0] for n in self.neighbours]),
-            neighbour_tan=stack([n[1] for n in self.neighbours]),
-            neighbour_lane=stack([n[2] for n in self.neighbours]),
-            neighbour_lane_tan=stack([n[3] for n in self.neighbours]),
-            neighbour_params=table([n[4] for n in self.neighbours], 9),
         )
 
 

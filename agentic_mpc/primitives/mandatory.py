@@ -29,8 +29,6 @@
   slower than ``lane_line_standing_mps`` with the body over a line between lanes pays for how far the body reaches
   over it, squared, the more the slower it ends. Stand in a lane, or keep going until in one (docs/traffic.md: a
   yield that stopped half in the edge lane was struck by the ambulance it made way for);
-- a lane-entry gap (``Surroundings.lane_neighbours``, off unless ``lane_entry_gap_weight`` > 0): a plan whose body goes
-  deeper into a neighbour's lane than now keeps a time gap to it, ahead of it or behind it (:mod:`.lane_entry`);
 - smoothness of the planned inputs: a plan whose throttle/brake jumps from stage to stage costs more, so the
   weighted average of smooth plans is smooth (docs/cost-design.md).
 
@@ -40,26 +38,25 @@ Every term is a stage mean over the horizon (divided by H), so weights do not de
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 from pydantic import Field
 
+from agentic_mpc import removed_options
 from agentic_mpc.primitives.base import (
     STANDING_PLAN_MPS,
     Blockage,
     FloatArray,
     FusedTerms,
     LaneLines,
-    LaneNeighbour,
     Leader,
     Primitive,
     Rollouts,
     StepContext,
     TrackingReference,
 )
-from agentic_mpc.primitives.lane_entry import lane_entry_cost, lane_entry_params
 from agentic_mpc.primitives.vehicle_discs import disc_cost, disc_row
 
 TIME_GAP_WEIGHT = 10.0
@@ -81,6 +78,7 @@ class Mandatory(Primitive):
     kind: ClassVar[str] = "mandatory"
     paper_symbol: ClassVar[str] = "J0"
     mandatory: ClassVar[bool] = True
+    removed_fields: ClassVar[dict[str, str]] = removed_options.MANDATORY
 
     steer_limit_weight: float = Field(100.0, ge=0, description="per stage, on (|delta_cmd| - 1)^2 beyond the limit")
     throttle_brake_limit_weight: float = Field(10.0, ge=0, description="per stage, on (|ab_cmd| - 1)^2 beyond")
@@ -167,15 +165,6 @@ class Mandatory(Primitive):
     lane_line_standing_mps: float = Field(
         STANDING_PLAN_MPS, gt=0, description="a plan that ends slower than this stands: across a lane line, it pays"
     )
-    lane_entry_gap_weight: float = Field(
-        0.0, ge=0, description="per stage, on the lane-entry gap's shortfall in m (squared up to "
-        "time_gap_quadratic_m, then linear) while the body is deeper in a neighbour's lane than now "
-        "(primitives/lane_entry.py; needs surroundings.lane_neighbours); 0, the default: off"
-    )
-    lane_entry_time_gap_s: float = Field(
-        1.0, ge=0, le=10.0, description="the time gap a plan entering a lane keeps to the vehicle it merges ahead of "
-        "(at that vehicle's speed) or behind (at its own), plus standstill_gap_m"
-    )
 
     def prepare(self, context: StepContext) -> PreparedMandatory:
         s = context.surroundings
@@ -210,14 +199,8 @@ class Mandatory(Primitive):
         lines = s.lane_lines if moving and self.lane_line_standing_weight > 0.0 else None
         if lines is not None and (not lines.offsets_m or len(lines.points) == 0):
             lines = None
-        # A follower's cover spares only a standing car (MovingDisc.follower_side); a moving one it pushes as any: a
-        # yield moving over into a truck's lane ahead of it, spared, drifted on into its path (docs/traffic.md).
-        discs = s.moving_discs
-        if float(context.state[3]) >= STANDING_PLAN_MPS and any(disc.follower_side for disc in discs):
-            discs = tuple(replace(disc, follower_side=0.0) if disc.follower_side else disc for disc in discs)
-        neighbours = s.lane_neighbours if self.lane_entry_gap_weight > 0.0 else ()
-        return PreparedMandatory(self, context.horizon, discs, tuple(edges), context.previous_input, leaders,
-                                 starts, context.dt_s, rooms, standstill, lines, neighbours)
+        return PreparedMandatory(self, context.horizon, s.moving_discs, tuple(edges), context.previous_input, leaders,
+                                 starts, context.dt_s, rooms, standstill, lines)
 
 
 def _inside_room(b: Blockage, x_m: float, y_m: float, turn_radius: float, cos_g: float, sin_g: float) -> bool:
@@ -255,12 +238,6 @@ class PreparedMandatory:
     standstill_gaps_m: tuple[float, ...] = ()
     """Per leader: d_0, or the room to pull out behind one that drives up to a blockage."""
     lane_lines: LaneLines | None = None
-    neighbours: tuple[LaneNeighbour, ...] = ()
-
-    def _lane_entry_args(self) -> tuple[float, float, float, float]:
-        p = self.spec
-        return (p.lane_entry_time_gap_s, p.standstill_gap_m, p.lane_entry_gap_weight / self.horizon,
-                p.time_gap_quadratic_m)
 
     def _lane_line_params(self) -> tuple[float, ...]:
         lines, p = self.lane_lines, self.spec
@@ -291,8 +268,6 @@ class PreparedMandatory:
             e_lat = tx * (r.y_m - ey) - ty * (r.x_m - ex)
             violation = np.maximum(0.0, p.road_edge_margin_m + side * e_lat)
             total += p.road_edge_weight / h * np.sum(violation**2, axis=0)
-        for neighbour in self.neighbours:
-            total += lane_entry_cost(neighbour, r, *self._lane_entry_args())
         recovery = p.time_gap_recovery_mps * self.dt_s * np.arange(1, h + 1)[:, None]
         for leader, start, d0 in zip(self.leaders, self.gap_starts_m, self.standstill_gaps_m, strict=True):
             cx, cy = leader.contact_points[:, 0:1], leader.contact_points[:, 1:2]
@@ -364,9 +339,6 @@ class PreparedMandatory:
         for leader, start, d0 in zip(self.leaders, self.gap_starts_m, self.standstill_gaps_m, strict=True):
             terms.leaders.append((leader.contact_points, leader.tangents, start, d0))
         terms.queue_rooms.extend(self.queue_rooms)
-        for neighbour in self.neighbours:
-            terms.neighbours.append((neighbour.centres, neighbour.tangents, neighbour.lane_points,
-                                     neighbour.lane_tangents, lane_entry_params(neighbour, *self._lane_entry_args())))
         if self.lane_lines is not None:
             table = np.ascontiguousarray(np.hstack((self.lane_lines.points, self.lane_lines.tangents)))
             terms.lane_lines = (table, self.lane_lines.offsets_m, self._lane_line_params())

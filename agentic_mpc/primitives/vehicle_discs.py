@@ -6,8 +6,7 @@ the two bodies touch (d inside ``contact_share`` of the bodies' radius; for two 
 the rest of the radius being the clearance margin) up to ``contact`` more, x (1 - d²/r_touch²), as far as the ego
 closes in by its own motion (in full from ``closing_mps``): in the frame of the other's travel, its velocity relative
 to the other's, across towards it (a lane change into it) and along onto one ahead (running into it); not the
-other's cutting in or closing from behind. A
-follower's disc charges a standing car only as far as the plan comes closer to its line (``MovingDisc.follower_side``).
+other's cutting in or closing from behind.
 
 Why the contact term: the margin is soft, touching is not. Squeezed in a crawling queue, every plan inside three
 discs, the ego crept into the car ahead: a plan into its body cost at most twice one at its margin. Only the ego's
@@ -19,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agentic_mpc.primitives.base import FOLLOWER_APPROACH_RAMP_M, FloatArray, MovingDisc, Rollouts
+from agentic_mpc.primitives.base import FloatArray, MovingDisc, Rollouts
 
 
 def disc_cost(disc: MovingDisc, r: Rollouts, dt_s: float, clearance: float, contact: float, contact_share: float,
@@ -36,9 +35,6 @@ def disc_cost(disc: MovingDisc, r: Rollouts, dt_s: float, clearance: float, cont
     hx, hy = headings[:, 0:1], headings[:, 1:2]
     stage += np.where(d2 < touch2, contact * (1.0 - d2 / touch2) * _closing(disc, r, dt_s, dx, dy, d2, hx, hy,
                                                                            closing_mps), 0.0)
-    if disc.follower_side != 0.0:  # a follower's: as far as the plan came closer to its line
-        gap = disc.follower_side * (hy * dx - hx * dy)
-        stage *= np.clip((disc.follower_gap_now_m - gap) / FOLLOWER_APPROACH_RAMP_M, 0.0, 1.0)
     return np.sum(stage, axis=0) / h
 
 
@@ -71,9 +67,8 @@ def disc_row(disc: MovingDisc, horizon: int, clearance: float, contact: float, c
     else:
         headings, extents = disc.headings, disc.ego_half_extents_m
     body = disc.radius_m if disc.body_radius_m is None else disc.body_radius_m
-    return (disc.centres, headings, disc.radius_m, clearance / horizon, body, *extents, disc.follower_side,
-            disc.follower_gap_now_m, 1.0 / FOLLOWER_APPROACH_RAMP_M, contact / horizon, contact_share**2,
-            1.0 / closing_mps)
+    return (disc.centres, headings, disc.radius_m, clearance / horizon, body, *extents, contact / horizon,
+            contact_share**2, 1.0 / closing_mps)
 
 
 def _bodies_radius_m(disc: MovingDisc, r: Rollouts) -> FloatArray | float:

@@ -157,6 +157,18 @@ def _short(text: str) -> str:
     return text if len(text) <= CAPTION_CHARS else text[: CAPTION_CHARS - 1] + "…"
 
 
+def _tactic_caption(event: str, row: dict[str, Any]) -> str:
+    """What a tactic changed, in words: 'tactic merge_ahead_of_queue: J1 on lane 2 (not 1) past stopped_straight'."""
+    try:
+        tactic = json.loads(row.get("result") or "{}")
+    except (TypeError, ValueError):
+        tactic = {}
+    if event == "tactic_ended":
+        return f"tactic {row.get('content', '')} ended"
+    return (f"tactic {row.get('content', '')}: J1 on lane {tactic.get('followed_lane')} "
+            f"(not {tactic.get('tracked_lane')}) past {tactic.get('obstacle_id')}")
+
+
 def captions_of(rows: list[dict[str, Any]], own_calls: bool | None = None) -> list[dict[str, Any]]:
     """Passenger and observation messages, the agent's replies, its tool calls and the ego's stuck intervals
     (``stuck`` events), at their sim times.
@@ -175,6 +187,8 @@ def captions_of(rows: list[dict[str, Any]], own_calls: bool | None = None) -> li
             captions.append({"t": rounded(t, 3), "kind": kind, "text": _short(r.get("content", ""))})
         elif event == "stuck":
             captions.append({"t": rounded(t, 3), "kind": "stuck", "text": _short(r.get("content", ""))})
+        elif event in ("tactic_started", "tactic_ended"):
+            captions.append({"t": rounded(t, 3), "kind": "tactic", "text": _short(_tactic_caption(event, r))})
         elif event == "message" and role == "assistant" and r.get("content", "").strip():
             captions.append({"t": rounded(t, 3), "kind": "agent", "text": _short(r["content"])})
         elif event == "tool_call" or (event == "tool_call_received" and not own_calls):

@@ -9,9 +9,11 @@ One control step at simulation time t (:meth:`RunLoop.step`):
    in realtime mode it does not;
 3. one snapshot of the specification; the world's surroundings; the controller's inputs;
 4. the world advances one step with those inputs (the plant moves, the traffic reacts);
-5. the MCP server announces the new observation; an agent with observation messages watches the resource
-   ``sumo://emergency-vehicles`` for an emergency vehicle approaching or passed and wakes itself (lockstep:
-   it checks here and the loop waits; realtime: subscribed to the resource's updates); the step is recorded;
+5. the run's one emergency detector (:mod:`agentic_mpc.world.emergency`) decides whether an emergency
+   vehicle is approaching or has passed; the MCP server announces the new observation, and lists those
+   events in ``sumo://emergency-vehicles``; an agent with observation messages reads them there and wakes
+   itself on each (lockstep: told to read here, the loop waits; realtime: subscribed to the resource's
+   updates); the step is recorded;
    every 0.2 s the world is told the controller's plan (``World.signal_intention``: SUMO's drivers let the
    ego into the lane it enters).
 
@@ -39,6 +41,8 @@ from agentic_mpc.mcp.tools import ControllerTools
 from agentic_mpc.primitives import PreferredSteeringDirection, Specification, SpecificationSlot
 from agentic_mpc.run.recorder import RunRecorder, StepOutcome
 from agentic_mpc.run.timeline import MessageSchedule, TimedMessage
+from agentic_mpc.tactics.config import TacticsConfig
+from agentic_mpc.tactics.layer import TacticsLayer
 from agentic_mpc.vehicle import throttle_for_steady_speed
 from agentic_mpc.world import ALERT_DISTANCE_M
 from agentic_mpc.world.base import World
@@ -96,9 +100,12 @@ class RunLoop:
         agent: AgentSetup | None = None,
         steering_template: PreferredSteeringDirection | None = None,
         server_options: dict[str, Any] | None = None,
+        tactics: TacticsConfig = TacticsConfig(),
     ) -> None:
         self.world = world
         self.settings = settings
+        road = getattr(world, "tactical_road", None)  # a world that offers no road for the tactics drives without
+        self.tactics = TacticsLayer(tactics, road) if road is not None else None
         self.controller = FourierMPPI(controller, seed=seed)
         mean = np.zeros((2, self.controller.config.coefficients))
         mean[1, 0] = throttle_for_steady_speed(float(world.ego_state[3]))  # start cruising, not coasting
@@ -109,8 +116,10 @@ class RunLoop:
         self.tools = ControllerTools(self.slot, world.lanes, steering_template,
                                      situation_source=lambda: situation_of(world.observation))
         self.server: AgenticMPCServer = build_server(
-            self.tools, lambda: world.observation.to_json(),
+            self.tools, self._observation_json,
             **{"lane_index": world.lane_index_of, **(server_options or {})},  # sumo://road: the world's lane indices
+            tactics=self.tactics.to_json if self.tactics is not None else None,
+            memory=lambda: self.agent.memory_json() if self.agent is not None else None,  # agent://memory
         )
         self.server.on_tool_call = self.recorder.tool_call_received  # who changed the specification
         self.detector = EmergencyDetector(settings.alert_distance_m)
@@ -124,7 +133,7 @@ class RunLoop:
         if agent is not None:
             from agentic_mpc.agent.agent import Agent
 
-            config = agent.config  # observation messages: the agent watches sumo://emergency-vehicles itself
+            config = agent.config  # observation messages: the detector's events, read by the agent over MCP
             others = {}
             if config.knowledge:  # the shipped knowledge server, in process (the agent knows it as a client)
                 from agentic_mpc.knowledge.server import build_knowledge_server
@@ -135,6 +144,10 @@ class RunLoop:
                                other_servers=others).start()
             self._observation_messages = config.observation_messages
         self._lockstep = self.agent is not None and self.agent.config.mode == "lockstep"
+
+    def _observation_json(self) -> dict[str, Any]:
+        """What the observation resources read: the world's latest observation and the detector's events."""
+        return {**self.world.observation.to_json(), "emergency_events": [e.to_json() for e in self.detector.events]}
 
     # ------------------------------------------------------------------ stepping
     @property
@@ -155,16 +168,23 @@ class RunLoop:
         started = time.perf_counter()
         specification, version = self.slot.snapshot()
         before, state = world.observation, world.ego_state
-        tracking = specification.get("path_tracking")
-        side = getattr(specification.get("preferred_steering_direction"), "direction", None)
-        surroundings = world.surroundings(self.controller.config.horizon, getattr(tracking, "path", None), side)
+        path = getattr(specification.get("path_tracking"), "path", None)
+        plan = None
+        if self.tactics is not None:  # between what the world observes and the controller
+            side = getattr(specification.get("preferred_steering_direction"), "direction", None)
+            plan = self.tactics.plan(before, world.lane_index_of(path), side)
+            if self.tactics.changes:
+                self.recorder.tactic_events += self.tactics.changes
+                self.tactics.changes.clear()
+                self.server.publish_tactics()
+        surroundings = world.surroundings(self.controller.config.horizon, path, plan)
         output = self.controller.step(state, specification, surroundings)
         after = world.advance(output.delta, output.throttle, output.brake)
         outcome = StepOutcome(before, state, output, specification, version, len(surroundings.moving_discs),
                               (time.perf_counter() - started) * 1e3)
-        self.server.publish_observation()  # the JSON is built only if somebody listens
-        self.detector.update(after)  # the timeline's events (messages due a delay after one)
-        if self._observation_messages and self._lockstep:  # the agent checks what it reads; the car waits
+        events = self.detector.update(after)  # decided once: the timeline's and the agent's events
+        self.server.publish_observation()  # after the detector: a listener reads this step's events
+        if events and self._observation_messages and self._lockstep:  # the agent reads them; the car waits
             self.agent.watch(round(after.time_s, 3))
         self.recorder.step(outcome, after)
         steps = len(self.recorder.trajectory_rows) - 1

@@ -60,6 +60,8 @@ class RunRecorder:
             self.setup_events.append({"event": "ego_inserted", "sim_time_s": start.get("inserted_at_s"), "tau": None,
                                       "source": "world", "result": json.dumps(start, default=str)})
         self.received_calls: list[dict[str, Any]] = []
+        self.tactic_events: list[dict[str, Any]] = []
+        """``tactic_started`` / ``tactic_ended`` rows (the tactics layer's ``changes``)."""
         self.plan_rows: list[tuple[float, int, float, float]] = []
         self.metrics = MetricsRecorder(stuck=StuckTracker(lane_count=len(world.lanes().lanes)))
         circles = world.obstacle_circles()
@@ -161,7 +163,7 @@ class RunRecorder:
         collisions = [collision_event(e) for e in self.metrics.collisions.episodes] + self.metrics.stuck.events()
         collisions += [report_without_contact_event(r) for r in self.metrics.collisions.reports_without_contact]
         events = events_table(sorted(self.setup_events + transcript + list(self.received_calls)
-                                     + self.specification_events + collisions,
+                                     + self.specification_events + self.tactic_events + collisions,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
         events.to_csv(out_dir / files.EVENTS, index=False)
         summary: dict[str, Any] = {

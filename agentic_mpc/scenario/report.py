@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import sys
+from typing import Any
 
 import pandas as pd
 
@@ -19,6 +20,16 @@ yielding and is compared with it seed by seed (the shipped ones: ``yield`` and `
 
 PAIR_COLUMNS = ("scenario", "seed", "holding_variant", "yielding_variant", "holding_delay_s", "yielding_delay_s",
                 "delay_from_holding_s", "delay_ratio")
+
+
+def obstacle_pass_columns(left: str = "passed_left", right: str = "passed_right") -> dict[str, tuple[str, Any]]:
+    """``DataFrame.agg`` columns of how the runs passed the obstacle: on each side, into it, the least clearance."""
+
+    def runs_passed(side: str) -> Any:
+        return lambda sides: int((sides == side).sum())
+
+    return {left: ("obstacle_side", runs_passed("left")), right: ("obstacle_side", runs_passed("right")),
+            "hit": ("obstacle_side", runs_passed("hit")), "min_clearance_m": ("min_obstacle_clearance_m", "min")}
 
 
 def variant_table(summary: pd.DataFrame) -> pd.DataFrame:
@@ -34,10 +45,7 @@ def variant_table(summary: pd.DataFrame) -> pd.DataFrame:
         ok=("status", lambda s: int((s == "ok").sum())),
         collisions=("collisions", "sum"),
         collisions_ego_at_fault=("collisions_ego_at_fault", lambda s: s.sum(min_count=1)),
-        passed_left=("obstacle_side", lambda s: int((s == "left").sum())),
-        passed_right=("obstacle_side", lambda s: int((s == "right").sum())),
-        hit=("obstacle_side", lambda s: int((s == "hit").sum())),
-        min_clearance_m=("min_obstacle_clearance_m", "min"),
+        **obstacle_pass_columns(),
         blockages_passed=("blockages_passed", "mean"),
         stuck_s_max=("stuck_s", "max"),
         ambulance_delay_s=("ambulance_delay_s", "mean"),

@@ -57,6 +57,7 @@ def build_loop(scenario: Scenario, world: World, *, embedded_agent: bool = True,
         server_options={**{key: value for key in ("jurisdiction", "road_type")
                            if (value := getattr(scenario, key)) is not None},
                         **(server_options or {})},
+        tactics=scenario.tactics,
     )
 
 

@@ -20,6 +20,7 @@ from agentic_mpc.controller.config import MPPIConfig
 from agentic_mpc.frozen_config import FrozenConfig
 from agentic_mpc.scenario.yaml_source import ScenarioFileError, YamlDocument, YamlPath, deep_merge, load_yaml
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
+from agentic_mpc.tactics.config import TacticsConfig
 from agentic_mpc.worlds import WORLD_KINDS
 
 
@@ -37,7 +38,7 @@ class PathTrackingSettings(FrozenConfig):
 
 class ObstacleAvoidanceSettings(FrozenConfig):
     """J2 of the initial specification over the simulation's obstacles marked ``in_j2`` (discs covering each
-    stopped car, inflated by the ego's half size and a margin: ``sumo.covers.obstacle_circles``)."""
+    stopped car, inflated by the ego's half size and a margin: ``tactics.covers.obstacle_circles``)."""
 
     penalty: float = Field(100.0, gt=0)
 
@@ -102,6 +103,8 @@ class Scenario(FrozenConfig):
     specification: SpecificationSettings
     agent: AgentSettings = Field(default_factory=RulesSettings, description="which agent runs and how "
                                  "(agent/settings.py; a flat mapping, its backend key choosing the options)")
+    tactics: TacticsConfig = Field(TacticsConfig(), description="the driving tactics in force and their parameters "
+                                   "(agentic_mpc/tactics; worlds that offer a tactical road apply them)")
     messages: tuple[Message, ...] = ()
     duration_s: float = Field(..., gt=0, le=3600)
     stop_at_goal: bool = Field(True, description="end the run when the ego reaches the simulation's goal")

@@ -7,18 +7,21 @@ controller's and the specification's settings are not here: they belong to the r
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from agentic_mpc import removed_options
 from agentic_mpc.frozen_config import FrozenConfig
 
 LaneRef = int | Literal["left", "center", "right"]
 
 
 class SurroundingsConfig(FrozenConfig):
-    """How the observation becomes the controller's surroundings."""
+    """How the observation becomes the controller's surroundings (what the ego does about blockages is the
+    scenario's ``tactics``)."""
 
+    removed_fields: ClassVar[dict[str, str]] = removed_options.SURROUNDINGS
 
     clearance_margin_m: float = Field(
         0.5, ge=0, description="disc radius = (W + W_ego)/2 + margin; also how far the cover overshoots at corners"
@@ -37,66 +40,7 @@ class SurroundingsConfig(FrozenConfig):
         12.0, ge=0, description="a vehicle is relevant if it comes this close (beyond its cover) within the horizon"
     )
     ignore_followers_in_lane: bool = Field(True, description="leave out vehicles right behind in the ego's lane")
-    leader_time_headway_s: float = Field(
-        0.0, ge=0, description="the cover of a vehicle ahead in the ego's lane reaches back this headway (off by "
-        "default: J0's time-gap term keeps the distance by braking; this cover made the ego swerve after cut-ins)"
-    )
     leader_standstill_gap_m: float = Field(2.0, ge=0, description="... plus this gap (the ego keeps its distance)")
-    passing_lanes_within_m: float | None = Field(
-        80.0,
-        ge=0,
-        description="a static obstacle this close ahead in the ego's lane opens the lanes beside it: they join the "
-        "corridor and their traffic gets the lane-entry cover, so the ego may go round it there and merges as into "
-        "any lane it enters (None: only the lane J1 tracks)",
-    )
-    follower_yield_mps2: float = Field(
-        2.0,
-        ge=0,
-        le=9.0,
-        description="a follower in a lane beside a blockage is predicted to brake this hard to let the ego in (gap "
-        "acceptance for the zipper; 0: it keeps its speed)",
-    )
-    follower_yield_merge_accel_mps2: float | None = Field(
-        2.0,
-        ge=0,
-        description="a follower is predicted to brake to let the ego in only if it can, braking at follower_yield_mps2 "
-        "while the ego speeds up at this rate (else it keeps its speed: 3612 pulled out at 1 m/s in front of a car at "
-        "14 m/s 16 m back, and side-swiped it); None: every follower beside a blockage is predicted to yield",
-    )
-    detour_beside_queues: bool = Field(
-        True,
-        description="once the ego's centre is in the lane beside a queue that blocks the lane J1 tracks (or beside a "
-        "lone stopped obstacle 20 m ahead or more), or it stands in that lane behind a lone stopped obstacle partly "
-        "aside, J1 follows the lane beside (on that side) until "
-        "the ego is past the obstacle (pulled back towards the queue, the ego stood wedged beside it, or in line "
-        "behind it: docs/traffic.md)",
-    )
-    detour_ahead_of_queues_m: float | None = Field(
-        80.0,
-        gt=0,
-        description="a queue with cars in it this close ahead in the lane J1 tracks, the ego driving in that lane: J1 "
-        "follows the lane beside on J3's preferred side (the other side if the road has no lane there) until the ego "
-        "is past, so that it merges while it moves, as SUMO's drivers change lanes ahead of a blockage, rather than "
-        "braking late from 15 m/s and swerving or standing nose to tail; not while an emergency vehicle is this close "
-        "(docs/traffic.md; None: off)",
-    )
-    detour_merge_waits_from_mps: float | None = Field(
-        None,
-        gt=0,
-        description="with the detour ahead of a queue, while the ego is at least this fast and its centre still in "
-        "the tracked lane, J1 follows the lane beside only when that lane has room beside the ego "
-        "(sumo.queues.room_to_merge), else the tracked lane with its reference slowed to stop with room behind the "
-        "queue. None (the default): off; at 8.0 it ended the merges pressed to a car alongside (4459) but on unseen "
-        "4640-4679 it stopped a run behind the stopped car for 91 s (docs/traffic.md)",
-    )
-    approach_decel_mps2: float | None = Field(
-        None,
-        gt=0,
-        description="coming up to a queue (cars standing behind a stopped one) in the lane the ego is in, J1's "
-        "reference slows so that braking at this rate stops it with room to pull out (None, the default: at v_ref "
-        "until J0 sees the queue 2 s ahead; the ego then braked at 5 m/s^2 and stood 1.6 m behind the queue's last "
-        "car). Off: at 2.0 it was mixed on seen seeds 900-919 and worse on unseen 2100-2119 (docs/traffic.md)",
-    )
     edges: Literal["road", "corridor", "none"] = Field(
         "road",
         description="the edges J0 keeps the ego between: the road's; the corridor of the lanes the ego may use"
@@ -106,18 +50,6 @@ class SurroundingsConfig(FrozenConfig):
         True,
         description="J0 sees the lines between lanes: a plan that ends standing across one pays (false: only "
         "other road users and the edges keep a standing ego anywhere)",
-    )
-    lane_neighbours: bool = Field(
-        False, description="J0 gets the vehicles in the lanes beside the ego's that it may enter, for its lane-entry "
-        "gap (with Mandatory.lane_entry_gap_weight > 0; off by default: docs/traffic.md, 'Gap acceptance when "
-        "entering a lane')",
-    )
-    followers_charge_approach: bool = Field(
-        False,
-        description="while the ego stands, the discs of a vehicle closing in from behind in a lane beside charge a "
-        "plan only as far as it comes closer to that vehicle's line (false, the default: wherever it is inside them; "
-        "on, a car standing partly in a truck's lane no longer raced it, but a car waiting to merge stood longer: "
-        "docs/traffic.md, 'A follower passing a standing car')",
     )
 
 
@@ -254,13 +186,7 @@ class SumoConfig(FrozenConfig):
     sensing_range_m: float = Field(150.0, gt=0)
     keep_route: Literal[2, 3] = Field(3, description="moveToXY keepRoute for the ego (see SumoBridge)")
     surroundings: SurroundingsConfig = SurroundingsConfig()
-    edge_out_min_gap_m: float | None = Field(
-        None, gt=0,
-        description="SUMO's drivers standing at their minGap behind a stopped obstacle for edge_out_after_s get this"
-        " minGap (0.5 m resolves the deadlock of incident_in_traffic seed 913) so that its lane-change model lets"
-        " them edge out; None (the default: not better on seeds 1000-1019, docs/traffic.md): SUMO's own minGap",
-    )
-    edge_out_after_s: int = Field(10, ge=1, le=600, description="see edge_out_min_gap_m (whole seconds)")
+    removed_fields: ClassVar[dict[str, str]] = removed_options.SIMULATION
     centre_lateral_offsets: bool = Field(
         True,
         description="observe SUMO drivers' lateral offsets at their centres, where J0's discs then sit; False: SUMO's"
@@ -273,17 +199,13 @@ class SumoConfig(FrozenConfig):
         " beside, are moved back to their lane's centre (a truck so wedged held the ego behind it for 80 s:"
         " docs/traffic.md); None: left to SUMO",
     )
-    ego_standing_min_gap_m: float | None = Field(
-        None, ge=0, le=10,
-        description="with stopped-car obstacles, the ego's minGap in SUMO while it stands (< 0.5 m/s): SUMO's sublane"
-        " model blocks every sideways move of a car the ego stands closer behind than its minGap (incident_in_traffic"
-        " 4415: the road stood for good; docs/traffic.md); None: the ego's vType minGap always",
-    )
     announce_lane_changes: bool = Field(
         True,
         description="SUMO's drivers told of the ego's lane changes (its plan): followers in the lane it enters asked"
-        " to open a gap, braking at most surroundings.follower_yield_mps2 (agentic_mpc.sumo.intention)",
+        " to open a gap, braking at most announce_max_decel_mps2 (agentic_mpc.sumo.intention)",
     )
+    announce_max_decel_mps2: float = Field(
+        2.0, gt=0, le=9.0, description="how hard a SUMO driver asked to open a gap for the ego may brake")
     show_ego_outline: bool = Field(
         True,
         description="under the sublane model, the part of the ego that sticks into the next lane is a vehicle of"

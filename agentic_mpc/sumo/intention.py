@@ -4,7 +4,7 @@ The ego is driven by ``moveToXY``, so SUMO's lane-change model never runs for it
 blinker they react to nor get the cooperation requests they send each other, and the part of the ego that
 sticks into their lane is invisible to them until its centre crosses the line (``../shared/notes/sumo.md``).
 The controller's gap acceptance predicts that a follower in a lane the ego enters beside a blockage brakes
-at up to ``SurroundingsConfig.follower_yield_mps2`` to let it in; this makes that true in SUMO. From the
+at up to the tactics' ``gap_acceptance.follower_yield_mps2`` to let it in; this makes that true in SUMO. From the
 controller's plan the world finds the lane the ego's body is about to enter and asks the followers in that
 lane to open a gap behind the ego (``vehicle.openGap`` with the ego as the reference vehicle and that
 deceleration as the most they brake for it). Its blinker would tell them nothing: SUMO's drivers do not read

@@ -6,11 +6,12 @@ to the ego (see the observation module for the quantities) and our own footprint
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Iterable, Sequence
 
-from agentic_mpc.sumo.bridge import CollisionRecord, VehicleInfo, VehicleState
-from agentic_mpc.sumo.kernels import locate
+from agentic_mpc.polylines.kernels import locate
+from agentic_mpc.sumo.bridge import VehicleInfo, VehicleState
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.world.collisions import boxes_overlap, footprint_gap_m
 from agentic_mpc.world.observation import (
@@ -116,7 +117,7 @@ class ObservationBuilder:
         ego: VehicleState,
         others: Sequence[VehicleState],
         emergency: Sequence[VehicleState],
-        collisions: Sequence[CollisionRecord],
+        collisions: Sequence[CollisionObservation],
     ) -> Observation:
         road = self.road
         ego_info = self.info(ego.id)
@@ -236,10 +237,8 @@ class ObservationBuilder:
                 other = (next((v for v in traffic if v.id == other_id), None) or obstacles.get(other_id)
                          or next((e.vehicle for e in emergency_obs if e.vehicle.id == other_id), None))
                 gap = math.nan if other is None else footprint_gap_m(ego_obs, other)
-            collision_obs.append(CollisionObservation(
-                c.collider, c.victim, c.collider_type, c.victim_type, c.collider_speed_mps, c.victim_speed_mps,
-                c.kind, c.lane_id, c.pos_m, self.ego_id in (c.collider, c.victim), "sumo", gap,
-            ))
+            collision_obs.append(dataclasses.replace(c, involves_ego=self.ego_id in (c.collider, c.victim),
+                                                     footprint_gap_m=gap))
         # Our own footprint check against every vehicle and obstacle: SUMO misses the ego's part in the next
         # lane (it reports only once the ego's centre is across the line).
         reported = {frozenset((c.collider, c.victim)) for c in collision_obs}

@@ -6,7 +6,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from xml.etree import ElementTree
 
-
 SUMO_SEED_MODULUS = 2**31 - 1
 """SUMO's --seed is a C int: a run's seed is taken modulo this (the same for every seed below it)."""
 

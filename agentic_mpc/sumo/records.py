@@ -43,21 +43,6 @@ class VehicleInfo(NamedTuple):
     width_m: float
 
 
-class CollisionRecord(NamedTuple):
-    """A collision as SUMO reports it (``simulation.getCollisions``)."""
-
-    collider: str
-    victim: str
-    collider_type: str
-    victim_type: str
-    collider_speed_mps: float
-    victim_speed_mps: float
-    kind: str
-    """SUMO's collision type: 'collision', 'frontal', 'junction', 'sharedLane', ..."""
-    lane_id: str
-    pos_m: float
-
-
 def centre_to_front(x_m: float, y_m: float, phi_rad: float, length_m: float) -> tuple[float, float, float]:
     """Our centre pose -> SUMO's front-bumper position and navigational angle in degrees."""
     half = 0.5 * length_m

@@ -11,10 +11,14 @@ the ego onto a lane once its FRONT bumper crosses the line, and reports a collis
 it lengthwise (Scenario 2: the front 1.5 cm across, beside a car's rear bumper); the margin covers the front leading
 the centre by L_ego/2 sin(heading). Lanes the ego may not enter keep the physical cover (a wider one squeezes it).
 
-Following distance: the cover of a vehicle ahead in the ego's lane can reach back by ``leader_standstill_gap_m +
-leader_time_headway_s * v``, never over the ego. J0's time gap (below) keeps the distance along the path with a
-gradient, and the extension paid the ego for moving sideways after a cut-in (lane excursions up to 1.9 m with it,
-0.29 m without: docs/cost-design.md "Time gap"), so it is 0 by default.
+Following distance: the cover of a vehicle ahead in the ego's lane reaches back by ``leader_standstill_gap_m``,
+never over the ego. J0's time gap (below) keeps the distance along the path with a gradient (a cover reaching back
+in proportion to the speed paid the ego for moving sideways after a cut-in: docs/cost-design.md "Time gap").
+
+Tactics (:mod:`agentic_mpc.tactics`): the run loop hands each step's :class:`TacticalPlan`: the lane J1 follows
+instead of the tracked one (J1's reference is shifted there, and the corridor and the time-gap leaders are that
+lane's), the blockages (J0's queue room behind each, rule ``queue_room``), the passing lanes (corridor and
+lane-entry covers) and gap acceptance (followers there predicted to yield).
 
 Time gap (J0's ``Surroundings.leaders``, :meth:`SurroundingsBuilder.leaders`): the nearest vehicle ahead on the lane
 J1 tracks (else the ego's own), plus a nearer one from a lane beside whose box overlaps the path lane now or within
@@ -33,21 +37,13 @@ import math
 
 import numpy as np
 
-from agentic_mpc.primitives import LaneLines, LaneNeighbour, Leader, MovingDisc, Surroundings, TrackingReference
+from agentic_mpc.polylines.kernels import disc_centres, locate, points_at, side_lines
+from agentic_mpc.primitives import LaneLines, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
-from agentic_mpc.sumo.covers import DiscCover, disc_cover
-from agentic_mpc.sumo.kernels import disc_centres, locate, points_at, side_lines
-from agentic_mpc.sumo.neighbours import can_let_in, lane_neighbours
 from agentic_mpc.sumo.network import Road
-from agentic_mpc.sumo.queues import (
-    QUEUE_LEADER_WITHIN_M,
-    Detour,
-    Queue,
-    approach_speed_cap_mps,
-    drives_up_to_a_queue,
-    find_queues,
-)
-from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
+from agentic_mpc.tactics.covers import DiscCover, disc_cover
+from agentic_mpc.tactics.layer import NO_TACTICS, TacticalPlan, TacticalRoad
+from agentic_mpc.tactics.queues import QUEUE_LEADER_WITHIN_M, Queue, drives_up_to_a_queue
 from agentic_mpc.world.observation import Observation, VehicleObservation
 
 CUT_IN_LOOKAHEAD_S = 1.0
@@ -57,8 +53,6 @@ LANE_LINE_SPACING_M = 1.0
 LANE_LINE_SPARE_POINTS = 6
 """Rows beyond the way the ego covers at its speed in a horizon (a plan that speeds up ends a little further)."""
 MAX_LEADERS = 3
-FOLLOWER_CLOSING_MPS = 0.5
-"""A vehicle behind in a lane beside that closes in faster than this is a follower (``MovingDisc.follower_side``)."""
 
 
 class SurroundingsBuilder:
@@ -72,10 +66,8 @@ class SurroundingsBuilder:
         horizon: int,
         dt_s: float,
         config: SurroundingsConfig = SurroundingsConfig(),
-        params: VehicleParams = PAPER_PARAMS,
     ) -> None:
         self.road = road
-        self.params = params  # the ego's geometry: the room it needs to pull out round a queue
         self.ego_length_m = ego_length_m
         self.ego_width_m = ego_width_m
         # J0's covers assume the ego aligned with each vehicle; turned, its corners reach further (MovingDisc)
@@ -91,9 +83,14 @@ class SurroundingsBuilder:
         self._lines_between_lanes = tuple(sorted(right for _, right in bounds if right > min(r for _, r in bounds)))
         self._covers: dict[tuple[float, float, float], DiscCover] = {}
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
-        self._queues_of: Observation | None = None
-        self._queues: tuple[Queue, ...] = ()
-        self._detour = Detour(self.config.detour_ahead_of_queues_m, self.config.detour_merge_waits_from_mps)
+        self._plan: TacticalPlan = NO_TACTICS
+
+    @property
+    def tactical_road(self) -> TacticalRoad:
+        """The road and sizes the tactics layer sees (its queues are then the ones these covers make)."""
+        c = self.config
+        return TacticalRoad(self._lane_centres, self.ego_length_m, self.ego_width_m, c.clearance_margin_m,
+                            c.max_discs_per_vehicle, c.range_ahead_m)
 
     def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
         """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""
@@ -146,46 +143,23 @@ class SurroundingsBuilder:
     def _headway_m(self, vehicle: VehicleObservation, ego_speed_mps: float) -> float:
         """How far the cover of a leader is extended backwards: the following distance, capped so that the
         extended cover still ends 0.5 m in front of the ego's centre (the ego is never inside it)."""
-        c = self.config
-        wanted = c.leader_standstill_gap_m + c.leader_time_headway_s * max(ego_speed_mps, 0.0)
+        wanted = self.config.leader_standstill_gap_m
         cover = self._cover(vehicle)
         room = vehicle.offset_m - (cover.offsets_m[-1] + cover.radius_m) - 0.5
         return max(0.0, min(wanted, room))
 
     def enterable_lanes(self, observation: Observation, target_lane: int | None) -> frozenset[int]:
         """Lanes other than its own the ego may drive into: with ``edges="corridor"`` the lane J1 tracks and
-        the :meth:`passing_lanes`, otherwise all. Vehicles there get the lane-entry cover (module docstring)."""
+        the tactics' passing lanes, otherwise all. Vehicles there get the lane-entry cover (module docstring)."""
         own = observation.ego.lane_index if observation.ego.lane_role else None
         if self.config.edges == "corridor":
             tracked = frozenset() if target_lane is None else frozenset((target_lane,))
-            return (tracked | self.passing_lanes(observation, target_lane)) - {own}
+            return (tracked | self._plan.passing_lanes) - {own}
         return frozenset(i for i in range(self.road.lane_count) if i != own)
 
-    def passing_lanes(self, observation: Observation, target_lane: int | None) -> frozenset[int]:
-        """The lanes beside the ego's when a blockage (:meth:`queues`) stands ahead in the lane it drives or
-        tracks, its tail within ``passing_lanes_within_m``: where the ego goes round (docs/traffic.md)."""
-        within = self.config.passing_lanes_within_m
-        ego = observation.ego
-        if within is None or not ego.lane_role:
-            return frozenset()
-        lanes = {ego.lane_index} | ({target_lane} if target_lane is not None else set())
-        if not any(q.lane_index in lanes and q.tail_gap_m <= within for q in self.queues(observation)):
-            return frozenset()
-        own = ego.lane_index
-        return frozenset(i for i in (own - 1, own + 1) if 0 <= i < self.road.lane_count)
-
-    def queues(self, observation: Observation) -> tuple[Queue, ...]:
-        """Each static obstacle ahead with the vehicles standing behind it in its lane (:func:`find_queues`)."""
-        if self._queues_of is observation:  # asked several times per step
-            return self._queues
-        margin = self.config.clearance_margin_m  # physical covers: which lanes are enterable depends on the queues
-        self._queues = find_queues(
-            observation, lambda v: self._cover(v, physical=True),
-            lambda o: disc_cover(o.length_m, o.width_m, self.ego_length_m, self.ego_width_m, margin),
-            self.config.range_ahead_m,
-        )
-        self._queues_of = observation
-        return self._queues
+    def _queue_room(self) -> tuple[Queue, ...]:
+        """The queues J0 keeps room behind, out of its time gap (rule ``queue_room``), else none."""
+        return self._plan.queues if self._plan.queue_room else ()
 
     def discs(self, observation: Observation, target_lane: int | None = None) -> tuple[MovingDisc, ...]:
         """Discs of the relevant vehicles, predicted at constant speed along their lanes."""
@@ -203,8 +177,7 @@ class SurroundingsBuilder:
                 per_lane.setdefault(vehicle.lane_index, []).append((vehicle, *relevance))
         discs: list[MovingDisc] = []
         if per_lane:
-            ego_at = (self._ego_lateral_m(observation), ego_speed) if self.config.followers_charge_approach else None
-            self._lane_discs(discs, per_lane, ego_speed, self.passing_lanes(observation, target_lane), ego_at)
+            self._lane_discs(discs, per_lane, ego_speed)
         for vehicle, cover, headway in off_road:
             direction = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
             centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * direction
@@ -215,37 +188,28 @@ class SurroundingsBuilder:
         return tuple(discs)
 
     def _lane_discs(self, discs: list[MovingDisc],
-                    per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]], ego_speed_mps: float,
-                    passing_lanes: frozenset[int] = frozenset(), ego_at: tuple[float, float] | None = None) -> None:
-        """The discs of the vehicles on lanes, one compiled call per lane (:mod:`agentic_mpc.sumo.kernels`): stage k of
+                    per_lane: dict[int, list[tuple[VehicleObservation, DiscCover, float]]], ego_speed_mps: float) -> None:
+        """The discs of the vehicles on lanes, one compiled call per lane (:mod:`agentic_mpc.polylines.kernels`): stage k of
         a disc is the lane point at lane_s + v t_k, plus the vehicle's lateral offset and the disc's offset along its
-        heading. Gap acceptance (docs/traffic.md): a follower in a lane beside a blockage (:meth:`passing_lanes`) that
-        can let the ego in (``neighbours.can_let_in``) is predicted to, braking at ``follower_yield_mps2``. With
-        ``ego_at`` (the ego's offset left of the road's reference line, its speed), a vehicle behind in a lane beside
-        closing in faster than ``FOLLOWER_CLOSING_MPS`` is a follower (``MovingDisc.follower_side``)."""
-        yield_mps = 0.5 * self.config.follower_yield_mps2 * self._horizon_s
+        heading. Gap acceptance (the tactics' rule): a follower in a passing lane that can let the ego in is
+        predicted to, braking at its ``follower_yield_mps2``."""
+        gap = self._plan.gap_acceptance
+        yield_mps = 0.5 * gap.follower_yield_mps2 * self._horizon_s if gap is not None else 0.0
         for index, lane_items in per_lane.items():
             rows: list[tuple[float, float, float, float, float]] = []  # (speed, lane_s, lateral, offset, heading)
             radii: list[tuple[float, float]] = []  # (the cover's, the bodies')
-            gates: list[tuple[float, float]] = []  # (follower side, its lateral gap now) or (0, 0)
-            yielding = index in passing_lanes and yield_mps > 0.0
+            yielding = index in self._plan.passing_lanes and yield_mps > 0.0
             for vehicle, cover, headway in lane_items:
                 body_radius = self._cover(vehicle, physical=True).radius_m  # what grows with the ego's angle
                 speed = vehicle.speed_mps
-                if yielding and vehicle.relation == "behind" and can_let_in(vehicle, ego_speed_mps, self.config):
+                if yielding and vehicle.relation == "behind" and gap.lets_in(vehicle.gap_m, speed, ego_speed_mps):
                     speed = max(0.0, speed - yield_mps)
-                gate = (0.0, 0.0)
-                if (ego_at is not None and vehicle.relative_lane and vehicle.offset_m < 0.0
-                        and vehicle.speed_mps > ego_at[1] + FOLLOWER_CLOSING_MPS):
-                    lateral = self._lane_centres[index] + vehicle.lateral_offset_m - ego_at[0]
-                    gate = (1.0 if lateral > 0.0 else -1.0, abs(lateral))
                 for offset in self._offsets(vehicle, cover, headway):
                     rows.append((speed, vehicle.lane_s_m, vehicle.lateral_offset_m, offset, vehicle.heading_rad))
                     radii.append((cover.radius_m, body_radius))
-                    gates.append(gate)
             centres, headings = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
-            discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body, *gate)
-                         for c, (radius, body), h, gate in zip(centres, radii, headings, gates, strict=True))
+            discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body)
+                         for c, (radius, body), h in zip(centres, radii, headings, strict=True))
 
     def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:
         """The discs' offsets along the vehicle's heading; a leader's row extended backwards by ``headway``."""
@@ -267,7 +231,7 @@ class SurroundingsBuilder:
         centre, half = 0.5 * (left + right), 0.5 * (left - right)
         table = self.road.lane_tables[path_lane]
         candidates: list[tuple[float, VehicleObservation]] = []
-        queued = {member for queue in self.queues(observation) for member in queue.members}
+        queued = {member for queue in self._queue_room() for member in queue.members}
         for vehicle in observation.traffic:
             if vehicle.relation != "ahead" or vehicle.lane_s_m is None or vehicle.offset_m > self.config.range_ahead_m:
                 continue
@@ -312,7 +276,7 @@ class SurroundingsBuilder:
         path's lane: one beside that reaches into it is not the car the ego would queue behind (a car creeping
         along the queue's lane beside the ego, aligned to its edge, held the ego standing 10.8 m back in a free
         lane for 15 s: docs/traffic.md)."""
-        if vehicle.id in queued or not drives_up_to_a_queue(self.queues(observation), vehicle):
+        if vehicle.id in queued or not drives_up_to_a_queue(self._queue_room(), vehicle):
             return None
         return self._cover(vehicle).radius_m
 
@@ -325,7 +289,7 @@ class SurroundingsBuilder:
         lateral = self._ego_lateral_m(observation)
         reach = 0.5 * self.ego_width_m
         left, right = self._lane_bounds[target_lane]
-        for lane in self.passing_lanes(observation, target_lane):
+        for lane in self._plan.passing_lanes:
             left, right = max(left, self._lane_bounds[lane][0]), min(right, self._lane_bounds[lane][1])
         for lane_left, lane_right in self._lane_bounds:
             if lateral - reach < lane_left and lateral + reach > lane_right:  # the box overlaps this lane
@@ -344,16 +308,15 @@ class SurroundingsBuilder:
         return TrackingReference(lines[0], lines[2]), TrackingReference(lines[1], lines[2])
 
     def build(self, observation: Observation, ego_state: np.ndarray, target_lane: int | None = None,
-              passing_side: str | None = None) -> Surroundings:
+              plan: TacticalPlan | None = None) -> Surroundings:
         """Surroundings for a control step from ``ego_state`` = [x, y, phi, v] (SUMO reports the ego where we put
-        it); ``target_lane``: the lane J1 tracks (``edges="corridor"``); ``passing_side``: J3's preferred side."""
-        shift, within = 0.0, self.config.passing_lanes_within_m
-        if self.config.detour_beside_queues and within is not None:
-            detour = self._detour.lane(observation, self.queues(observation), target_lane, within,
-                                       self._lane_centres, passing_side)
-            if detour is not None:  # J1's reference, the corridor, the leaders: of the lane the ego passes in
-                shift = self._lane_centres[detour] - self._lane_centres[target_lane]
-                target_lane = detour
+        it); ``target_lane``: the lane J1 tracks; ``plan``: the tactics' plan for this step (None: no tactics)."""
+        self._plan = plan = plan if plan is not None else NO_TACTICS
+        shift = 0.0
+        if plan.followed_lane is not None and target_lane is not None:
+            # J1's reference, the corridor, the leaders: of the lane the ego passes in
+            shift = self._lane_centres[plan.followed_lane] - self._lane_centres[target_lane]
+            target_lane = plan.followed_lane
         left = right = None
         mode = self.config.edges
         if mode != "none":
@@ -363,29 +326,13 @@ class SurroundingsBuilder:
         leaders = self.leaders(observation, target_lane)
         # Queued nose to tail already (the tail is then a time-gap leader): the room behind it is lost, and
         # asking for it made the ego steer and creep into the car (ego_into_stopped at 0.2 m/s, seeds 0-2).
-        blockages = tuple(queue.tail for queue in self.queues(observation) if not queue.nose_to_tail)
-        # The queue in the ego's own lane, whichever lane J1 follows: with J1 on the lane beside (a detour), the ego
-        # came up at 15 m/s, found no gap to pull out into and braked too late (seed 1908, docs/traffic.md).
-        decel = self.config.approach_decel_mps2 or self._detour.waiting_decel_mps2  # or a merge waits for room
-        cap = None if decel is None or observation.ego.lane_index is None else approach_speed_cap_mps(
-            self.queues(observation), observation.ego.lane_index, decel, self.params.pull_out_distance_m)
-        neighbours = self._lane_neighbours(observation, target_lane) if self.config.lane_neighbours else ()
+        blockages = tuple(queue.tail for queue in self._queue_room() if not queue.nose_to_tail)
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
-                            blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=cap,
-                            lane_lines=self.lane_lines(observation.ego.road_s_m, float(ego_state[3])),
-                            lane_neighbours=neighbours)
-
-    def _lane_neighbours(self, observation: Observation, target_lane: int | None) -> tuple[LaneNeighbour, ...]:
-        """J0's lane-entry gap's vehicles (:mod:`agentic_mpc.sumo.neighbours`): in J1's lane and the passing lanes."""
-        passing = self.passing_lanes(observation, target_lane)
-        return lane_neighbours(
-            observation, self.road, self._steps, (self.ego_length_m, self.ego_width_m),
-            self._ego_lateral_m(observation), lambda v: self.relevant(v, observation.ego.speed_mps),
-            passing | ({target_lane} - {None}), passing, 0.5 * self.config.follower_yield_mps2 * self._horizon_s,
-            lambda v: can_let_in(v, observation.ego.speed_mps, self.config))
+                            blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=plan.speed_cap_mps,
+                            lane_lines=self.lane_lines(observation.ego.road_s_m, float(ego_state[3])))
 
     def _ego_lateral_m(self, observation: Observation) -> float:
-        """The ego's centre's offset left of the road's reference line (corridor, followers, lane neighbours)."""
+        """The ego's centre's offset left of the road's reference line (the corridor)."""
         ego = observation.ego
         return locate(self.road.reference_table, ego.x_m, ego.y_m, ego.road_s_m)[1]
 

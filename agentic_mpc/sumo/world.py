@@ -27,7 +27,6 @@ from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import Circle, Surroundings
 from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
-from agentic_mpc.sumo.covers import obstacle_circles
 from agentic_mpc.sumo.insertion import insert_at_free_gap, speed_behind_leader
 from agentic_mpc.sumo.intention import IntentionReader
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
@@ -36,8 +35,10 @@ from agentic_mpc.sumo.outline import EgoOutline
 from agentic_mpc.sumo.route_files import RouteFileError, read_route_types, rescue_lanes_active, type_attribute
 from agentic_mpc.sumo.start import open_bridge
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder
+from agentic_mpc.tactics.covers import obstacle_circles
+from agentic_mpc.tactics.layer import TacticalPlan, TacticalRoad
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
-from agentic_mpc.world.base import WorldError
+from agentic_mpc.world.base import WorldError, WorldReadings
 from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import Observation
 
@@ -53,7 +54,7 @@ class _Resolved:
     pos_m: float
 
 
-class SumoWorld:
+class SumoWorld(WorldReadings):
     """A :class:`~agentic_mpc.world.base.World` simulated by SUMO. ``seed`` is SUMO's seed (the run's)."""
 
     def __init__(self, config: SumoConfig, seed: int = 0, params: VehicleParams = PAPER_PARAMS) -> None:
@@ -98,8 +99,7 @@ class SumoWorld:
             self._observer = ObservationBuilder(self.road, config.ego_id, self._bridge.info, self.obstacle_ids,
                                                 self._obstacle_state, config.centre_lateral_offsets)
             self._observation = self._observe()
-            yield_mps2 = config.surroundings.follower_yield_mps2
-            self._intention = IntentionReader(self.road, self.ego_width_m, max_decel_mps2=yield_mps2
+            self._intention = IntentionReader(self.road, self.ego_width_m, max_decel_mps2=config.announce_max_decel_mps2
                                               ) if config.announce_lane_changes else None
             self._outline = EgoOutline(self.road, info, self._bridge, config.ego_id, self._route_from(
                 self._ego_start.edge_id)) if config.show_ego_outline and (config.sublane or self.rescue_lanes) else None
@@ -253,15 +253,6 @@ class SumoWorld:
         return self._bridge
 
     @property
-    def observation(self) -> Observation:
-        assert self._observation is not None
-        return self._observation
-
-    @property
-    def ego_state(self) -> np.ndarray:
-        return self._state
-
-    @property
     def time_s(self) -> float:
         return self._observation.time_s if self._observation is not None else float("nan")
 
@@ -307,15 +298,20 @@ class SumoWorld:
             for circle in obstacle_circles(obstacle, self.ego_length_m, self.ego_width_m)
         )
 
-    def surroundings(self, horizon: int, tracked_path: LanePath | None,
-                     passing_side: str | None = None) -> Surroundings:
+    def surroundings(self, horizon: int, tracked_path: LanePath | None, plan: TacticalPlan | None = None
+                     ) -> Surroundings:
+        return self._builder(horizon).build(self.observation, self._state, self.lane_index_of(tracked_path), plan)
+
+    @property
+    def tactical_road(self) -> TacticalRoad:
+        return self._builder(1).tactical_road  # the horizon does not change the road or the covers
+
+    def _builder(self, horizon: int) -> SurroundingsBuilder:
         builder = self._surroundings.get(horizon)
         if builder is None:
             builder = self._surroundings[horizon] = SurroundingsBuilder(
-                self.road, self.ego_length_m, self.ego_width_m, horizon, self.dt_s, self.config.surroundings,
-                self.params,
-            )
-        return builder.build(self.observation, self._state, self.lane_index_of(tracked_path), passing_side)
+                self.road, self.ego_length_m, self.ego_width_m, horizon, self.dt_s, self.config.surroundings)
+        return builder
 
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
         if not self.running:
@@ -358,12 +354,8 @@ class SumoWorld:
         if self._sumo_steps % _RELEASE_EVERY_STEPS != 0:
             return
         c, rescue = self.config, self.config.rescue_lanes
-        if c.edge_out_min_gap_m is not None and c.obstacles:
-            self._bridge.edge_out_behind_obstacles(c.edge_out_min_gap_m, c.edge_out_after_s)
         if c.straighten_wedged_after_s is not None and c.obstacles:
             self._bridge.straighten_wedged(c.straighten_wedged_after_s)
-        if c.ego_standing_min_gap_m is not None and c.obstacles:
-            self._bridge.standing_min_gap((c.ego_id, f"{c.ego_id}.outline"), c.ego_standing_min_gap_m)
         if self.rescue_lanes:
             self._bridge.release_rescue_lanes(rescue.release_behind_m or rescue.reaction_dist_m,
                                               self._route_types.lc_strategic, rescue.release_blocked_within_m)

@@ -15,7 +15,7 @@ One control step of the loop at time t::
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -27,6 +27,24 @@ from agentic_mpc.world.observation import Observation
 
 class WorldError(RuntimeError):
     """A world that cannot start, or that failed during a run (it is closed; what was recorded is kept)."""
+
+
+class WorldReadings:
+    """The two readings every world keeps between steps and the :class:`World` protocol asks for: the latest
+    observation and the ego's state (a world sets ``_observation`` and ``_state``)."""
+
+    _observation: Observation | None
+    _state: np.ndarray
+
+    @property
+    def observation(self) -> Observation:
+        if self._observation is None:
+            raise WorldError("the world has made no observation yet")
+        return self._observation
+
+    @property
+    def ego_state(self) -> np.ndarray:
+        return self._state
 
 
 @runtime_checkable
@@ -64,10 +82,11 @@ class World(Protocol):
     def obstacle_circles(self, only_in_j2: bool = False) -> tuple[Circle, ...]:
         """J2's discs around the world's static obstacles (only those marked for J2 if asked)."""
 
-    def surroundings(self, horizon: int, tracked_path: LanePath | None,
-                     passing_side: str | None = None) -> Surroundings:
-        """The controller's surroundings over ``horizon`` steps from now; ``passing_side``: J3's preferred side
-        ("left", "right"), where the world chooses a lane to pass a blockage in."""
+    def surroundings(self, horizon: int, tracked_path: LanePath | None, plan: Any = None) -> Surroundings:
+        """The controller's surroundings over ``horizon`` steps from now; ``plan``: this step's
+        :class:`~agentic_mpc.tactics.layer.TacticalPlan` (None: no tactics), which a world that offers a
+        ``tactical_road`` (the road the tactics layer sees) applies: the lane J1 follows, the queue room, the
+        passing lanes, gap acceptance. A world without ``tactical_road`` drives without tactics."""
 
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
         """Apply the ego's inputs for one control step; returns the new observation. Raises WorldError."""

@@ -39,10 +39,20 @@ from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import pairwise
-from typing import TYPE_CHECKING, Literal, Protocol
+from typing import Any, Literal, Protocol
 
-if TYPE_CHECKING:
-    from agentic_mpc.world.observation import Observation
+
+class Observation(Protocol):
+    """What the collision tracker reads of an observation (``world/observation.py:Observation``, which imports
+    this module: named here by its shape so that the two files do not import each other)."""
+
+    time_s: float
+    ego: Any
+    obstacles: Sequence[Any]
+    collisions: Sequence[Any]
+    emergency_vehicles: Sequence[Any]
+
+    def vehicle(self, vehicle_id: str) -> Any: ...
 
 Cause = Literal["rear_ended", "ego_struck_leader", "side_swipe_ego_lane_change", "side_swipe_other_lane_change",
                 "ego_into_stopped"]

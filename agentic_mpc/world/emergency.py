@@ -1,8 +1,10 @@
-"""The one emergency-vehicle event detector: an emergency vehicle approaching from behind, and its passing.
+"""The one emergency-vehicle event detector of a run: an emergency vehicle approaching from behind, and its
+passing.
 
-Read by the scenario's message timeline (messages due "a delay after an event", on the world's
-:class:`Observation`) and by the agent's emergency watch (on what it read from the MCP resource
-``sumo://emergency-vehicles``, :meth:`EmergencyDetector.update_json`). Both see the same events at the same step.
+The run loop feeds it every observation; what it decides is read by the scenario's message timeline
+(messages due "a delay after an event", :attr:`EmergencyDetector.first_times_s`) and by the agent: its
+observation messages are these events, listed in the MCP resource ``sumo://emergency-vehicles``
+(:attr:`EmergencyDetector.events`, :meth:`EmergencyEvent.to_json`). Both see the same events at the same step.
 
 - approaching: an emergency vehicle on the ego's road is behind the ego within ``alert_distance_m``
   (bumper to bumper);
@@ -12,7 +14,6 @@ Read by the scenario's message timeline (messages due "a delay after an event", 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -44,10 +45,26 @@ class EmergencyEvent:
         where = f"; it is now {self.distance_m:.0f} m ahead" if self.distance_m is not None else "; it is out of sight"
         return f"{stamp}The emergency vehicle ({names}) has passed us{where}."
 
+    def to_json(self) -> dict[str, Any]:
+        """As the resource lists it (rounded as the observations' JSON is)."""
+        distance = None if self.distance_m is None else round(self.distance_m, 3)
+        return {"kind": self.kind, "time_s": round(self.time_s, 3), "vehicles": list(self.vehicles),
+                "distance_m": distance}
+
+    @classmethod
+    def from_json(cls, item: Any) -> EmergencyEvent:
+        """Back from :meth:`to_json`; ``ValueError`` for anything else."""
+        fields = item if isinstance(item, dict) else {}
+        kind, t, vehicles, distance = (fields.get(key) for key in ("kind", "time_s", "vehicles", "distance_m"))
+        if (kind not in EVENT_KINDS or not isinstance(t, int | float) or not isinstance(vehicles, list)
+                or not (distance is None or isinstance(distance, int | float))):
+            raise ValueError(f"not an emergency-vehicle event: {item!r}")
+        return cls(kind, float(t), tuple(str(v) for v in vehicles), None if distance is None else float(distance))
+
 
 @dataclass(frozen=True, slots=True)
 class Sighting:
-    """What the detector needs of one emergency vehicle, from an observation or its JSON."""
+    """What the detector needs of one emergency vehicle."""
 
     id: str
     label: str
@@ -62,14 +79,6 @@ class Sighting:
         return cls(vehicle.id, _label(vehicle.id, vehicle.type_id or vehicle.vclass), emergency.relation,
                    vehicle.relative_lane is not None, emergency.distance_m)
 
-    @classmethod
-    def of_json(cls, item: dict[str, Any]) -> Sighting:
-        """From one entry of the resource's ``emergency_vehicles`` (``EmergencyVehicleObservation.to_json``)."""
-        distance = item.get("distance_m")
-        return cls(str(item["id"]), _label(str(item["id"]), item.get("type_id") or item.get("vclass") or ""),
-                   str(item.get("relation", "")), item.get("relative_lane") is not None,
-                   float(distance) if isinstance(distance, int | float) else math.inf)
-
 
 def _label(vehicle_id: str, kind: str) -> str:
     return f"{kind} '{vehicle_id}'" if kind else f"'{vehicle_id}'"
@@ -83,18 +92,12 @@ class EmergencyDetector:
     passed_margin_m: float = PASSED_MARGIN_M
     first_times_s: dict[str, float] = field(default_factory=dict)
     """When each kind of event happened first (what the message timeline waits for)."""
+    events: list[EmergencyEvent] = field(default_factory=list)
+    """Every event so far, in order (what the agent reads: a late reader misses none)."""
     _announced: dict[str, str] = field(default_factory=dict)
 
     def update(self, observation: Observation) -> list[EmergencyEvent]:
         return self.update_sightings(observation.time_s, [Sighting.of(e) for e in observation.emergency_vehicles])
-
-    def update_json(self, resource: dict[str, Any]) -> list[EmergencyEvent]:
-        """The same on the JSON of the MCP resource ``sumo://emergency-vehicles`` (``time_s``,
-        ``emergency_vehicles``); raises ``ValueError`` for a resource without them."""
-        t, items = resource.get("time_s"), resource.get("emergency_vehicles")
-        if not isinstance(t, int | float) or not isinstance(items, list):
-            raise ValueError("not an emergency-vehicles resource: time_s or emergency_vehicles missing")
-        return self.update_sightings(float(t), [Sighting.of_json(item) for item in items if isinstance(item, dict)])
 
     def update_sightings(self, t: float, sightings: list[Sighting]) -> list[EmergencyEvent]:
         present = {e.id: e for e in sightings}
@@ -119,4 +122,5 @@ class EmergencyDetector:
                 self._announced.clear()
         for event in events:
             self.first_times_s.setdefault(event.kind, event.time_s)
+        self.events.extend(events)
         return events

@@ -9,6 +9,7 @@ ego until the ego makes way). Obstacles are circles, given to J2 as they are.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from agentic_mpc import vehicle
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import Circle, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
-from agentic_mpc.world.base import WorldError
+from agentic_mpc.world.base import WorldError, WorldReadings
 from agentic_mpc.world.collisions import boxes_overlap
 from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import (
@@ -44,7 +45,7 @@ class _Mover:
         self.spec, self.x_m, self.speed_mps = spec, x_m, spec.desired_speed_mps
 
 
-class PlainWorld:
+class PlainWorld(WorldReadings):
     """A :class:`~agentic_mpc.world.base.World` in plain Python."""
 
     def __init__(self, config: PlainConfig | None = None, seed: int = 0, params: VehicleParams = PAPER_PARAMS) -> None:
@@ -70,14 +71,6 @@ class PlainWorld:
         self._observation = self._observe()
 
     # --- the world interface -------------------------------------------------------------------------
-    @property
-    def observation(self) -> Observation:
-        return self._observation
-
-    @property
-    def ego_state(self) -> np.ndarray:
-        return self._state
-
     @property
     def time_s(self) -> float:
         return self._step * self.dt_s
@@ -111,8 +104,7 @@ class PlainWorld:
     def signal_intention(self, planned_xy: np.ndarray) -> None:
         """Its movers keep their speeds whatever the ego does: nobody to tell."""
 
-    def surroundings(self, horizon: int, tracked_path: LanePath | None,
-                     passing_side: str | None = None) -> Surroundings:
+    def surroundings(self, horizon: int, tracked_path: LanePath | None, plan: Any = None) -> Surroundings:
         x = float(self._state[0])
         k = np.arange(1, horizon + 1)
         discs = tuple(

@@ -166,7 +166,7 @@ def test_the_answer_schema_is_one_tool_with_its_arguments_or_a_reply():
 
 
 def test_the_json_schema_request_and_its_history():
-    backend = OpenAIBackend(OpenAISettings(tool_mode="json_schema", api_key_env=None))
+    backend = OpenAIBackend(OpenAISettings(tool_mode="json_schema", api_key_env=None, prompt="full"))
     call = ToolCall("c1", "run_left_lane", {"v_ref": 0}, '{"v_ref": 0}')
     history = [Message("system", "You drive."), Message("user", "Let them pass."),
                Message("assistant", "", tool_calls=(call,)),
@@ -180,7 +180,8 @@ def test_the_json_schema_request_and_its_history():
         {"role": "user", "content": "Let them pass."},
         {"role": "assistant", "content": '{"name": "run_left_lane", "arguments": {"v_ref": 0}}'},
         {"role": "user", "content": '[result of run_left_lane] {"applied": true}\n'
-                                    '(Answer {"reply": ...} if nothing else must change.)'},
+                                    '(If the message asked for another change, call that tool now; '
+                                    'else answer {"reply": ...}.)'},
         {"role": "assistant", "content": '{"reply": "Pulled over."}'},
     ]
     # answering tool results: the same calls, a shorter reply (it only confirms what the results say)

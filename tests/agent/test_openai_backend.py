@@ -19,6 +19,9 @@ PAPER_2A = "An ambulance is coming behind us. We'd better let them pass."
 
 
 def backend(llm: ScriptedLLM, **options) -> OpenAIBackend:
+    """The backend with the full prompt (every tool, its whole description), whose requests these tests read;
+    the compact one's are tests/agent/test_compact_prompt.py's."""
+    options.setdefault("prompt", "full")
     return OpenAIBackend(OpenAISettings(base_url=llm.base_url, model="granite-test", api_key_env=None, **options))
 
 

@@ -8,11 +8,13 @@ import time
 
 from agentic_mpc.agent import Agent, AgentConfig
 from agentic_mpc.agent.backends.openai import OpenAIBackend
-from agentic_mpc.agent.settings import OpenAISettings
 from agentic_mpc.agent.backends.rules import RulesBackend
+from agentic_mpc.agent.settings import OpenAISettings
 from agentic_mpc.agent.situation import describe_situation
-from agentic_mpc.run.loop import AgentSetup
-from tests.agent.conftest import ambulance_loop
+from agentic_mpc.run.loop import AgentSetup, LoopSettings, RunLoop
+from agentic_mpc.world.emergency import EmergencyEvent
+from agentic_mpc.world.plain import PlainWorld
+from tests.agent.conftest import ambulance_config, ambulance_loop, paper_specification
 from tests.agent.scripted_llm import ScriptedLLM, calls, text, tool_call
 from tests.mcp.test_http_security import Served
 
@@ -59,11 +61,15 @@ def test_a_language_model_gets_the_situation_read_over_mcp_with_the_message(loop
     assert report.applied_calls == [{"tool": "set_reference_speed", "arguments": {"v_ref": 10}}]
     user = llm.requests[0]["messages"][1]
     assert user["role"] == "user" and user["content"].startswith("Current situation (t = 2.0 s):")
-    assert "in the center lane" in user["content"] and "no emergency vehicle around" in user["content"]
-    assert "- attached: path_tracking(lane=center, v_ref_mps=15)" in user["content"]
+    assert "in the center lane" in user["content"]
+    # the compact prompt's situation: what is as at the start (no emergency vehicle, the attached
+    # specification, the lanes the system message gives) is left out; the transcript keeps all of it
+    assert "no emergency vehicle around" not in user["content"] and "attached" not in user["content"]
     assert user["content"].endswith("\n\nPassenger: Please slow down to 36 km/h.")
     recorded = next(r for r in agent.transcript.records if r.get("role") == "user")
     assert recorded["content"] == "Please slow down to 36 km/h." and recorded["context"].startswith("Current")
+    assert "no emergency vehicle around" in recorded["context"]
+    assert "- attached: path_tracking(lane=center, v_ref_mps=15)" in recorded["context"]
 
 
 def test_the_rules_backend_is_given_no_situation(loop, server):
@@ -105,3 +111,26 @@ def test_an_agent_in_another_process_watches_the_server_over_http(tmp_path):
     woke = [r for r in records if r.get("event") == "message" and r.get("source") == "observation"]
     assert woke and "is approaching from behind" in woke[0]["content"]
     assert [r["tool"] for r in records if r.get("event") == "tool_call"][:1] == ["run_left_lane"]
+
+
+def test_the_agent_is_woken_by_what_the_runs_one_detector_decided():
+    # one decision, one alert distance (the run's, here 40 m, not the default 80 m): the agent relays it
+    world = PlainWorld(ambulance_config(), seed=0)
+    settings = LoopSettings(duration_s=3600.0, stop_at_goal=False, alert_distance_m=40.0)
+    agent = AgentSetup(RulesBackend(), AgentConfig(mode="lockstep", observation_messages=True))
+    with RunLoop(world, paper_specification(world), settings, agent=agent) as loop:
+        while not loop.detector.events and world.time_s < 30.0:
+            loop.step()
+        observations = [m for m in loop.agent.history.messages if m.source == "observation"]
+    (approaching,) = loop.detector.events
+    assert approaching.distance_m <= 40.0
+    assert [(m.content, m.sim_time_s) for m in observations] == [
+        (EmergencyEvent.from_json(approaching.to_json()).message(), round(approaching.time_s, 3))]
+
+
+def test_a_tactic_that_shapes_path_tracking_is_a_line_of_the_situation():
+    tactics = {"rules": ["pass_beside_queue"], "active": {"rule": "pass_beside_queue", "obstacle_id": "stopped",
+                                                          "tracked_lane": 1, "followed_lane": 0, "since_s": 3.0}}
+    said = describe_situation(EGO, None, SPEC, tactics=tactics)
+    assert "- tactic pass_beside_queue: path tracking follows lane 0 instead of lane 1 to pass stopped" in said
+    assert "tactic" not in describe_situation(EGO, None, SPEC, tactics={"rules": [], "active": None})

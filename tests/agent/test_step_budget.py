@@ -103,7 +103,9 @@ def test_the_history_is_cut_at_a_step_and_the_cut_stays_while_it_fits():
 
 
 def test_a_long_dialogue_with_the_model_stays_inside_its_context(loop, server):
-    with ScriptedLLM() as llm, Agent(backend(llm, context_tokens=2500, max_tokens=200), server) as agent:
+    # the full prompt sends the whole history (the compact one says earlier steps in a line each, at most 4)
+    with ScriptedLLM() as llm, Agent(backend(llm, context_tokens=2500, max_tokens=200, prompt="full"),
+                                     server) as agent:
         for index in range(12):
             agent.deliver(f"Message {index}: tell me something about the road ahead, please. " * 3).result(30)
     sizes = [estimate_tokens([Message(m["role"], m.get("content") or "") for m in r["messages"]])

@@ -10,7 +10,6 @@ from agentic_mpc.primitives import (
     Circle,
     FollowingDistance,
     LaneLines,
-    LaneNeighbour,
     Leader,
     Mandatory,
     MovingDisc,
@@ -42,7 +41,6 @@ def specifications():
         "J1+J4 following distance": Specification.of(j1, FollowingDistance(gap_m=8.0)),
         # at 14 m/s no plan stands: count every plan that ends below 20 m/s as standing
         "J0 lane lines": Specification.of(Mandatory(lane_line_standing_mps=20.0), j1),
-        "J0 lane-entry gap": Specification.of(Mandatory(lane_entry_gap_weight=10.0), j1),
     }
 
 
@@ -64,25 +62,17 @@ def surroundings(horizon):
     # A car changing lanes to the left alongside at 0.15 rad: its cover grows with the ego's angle against it.
     changing = np.hstack([3 + 12.5 * 0.04 * k, 4.0 + 1.6 * 0.04 * k])
     turned = MovingDisc(changing, 2.55, np.tile([np.cos(0.15), np.sin(0.15)], (horizon, 1)), (2.6, 0.95), 2.4)
-    # A car coming from behind in the lane to the left, 2.5 m beside: charged only as far as a plan comes closer.
+    # A car coming from behind in the lane to the left, 2.5 m beside.
     follower = MovingDisc(np.hstack([-4 + 16 * 0.04 * k, np.full_like(k, 3.5, dtype=float)]), 2.6,
-                          np.tile([1.0, 0.0], (horizon, 1)), (2.3, 0.9), 2.3, follower_side=1.0, follower_gap_now_m=2.5)
+                          np.tile([1.0, 0.0], (horizon, 1)), (2.3, 0.9), 2.3)
     discs = (MovingDisc(ahead, 2.5), turned, follower)
     # Lines between lanes at 1.75 m left and right of a reference line that bends left (every 1 m, 40 m on)
     along = np.linspace(0.0, 39.0, 40)
     bend_angle = along / 150.0
     lines = LaneLines(np.column_stack([150 * np.sin(bend_angle), 150 * (1 - np.cos(bend_angle))]),
                       np.column_stack([np.cos(bend_angle), np.sin(bend_angle)]), 1.0, (-1.75, 1.75), 2.3, 0.9)
-    # Two cars in the lane to the left (centre line y = 3.5; the lane's centre line sampled where the ego will be):
-    # one 6 m behind at 16 m/s, one 10 m ahead at 12 m/s. The ego, 1 m left of its lane's centre now, is 0.25 m in.
-    lane_points = np.hstack([2 + 14 * 0.04 * k, np.full_like(k, 3.5, dtype=float)])
-    along_x = np.tile([1.0, 0.0], (horizon, 1))
-    neighbours = tuple(
-        LaneNeighbour(np.hstack([x0 + v * 0.04 * k, np.full_like(k, 3.5, dtype=float)]), along_x, lane_points, along_x,
-                      2.75, 4.6, v, 0.25)
-        for x0, v in ((-4.0, 16.0), (12.0, 12.0)))
     return Surroundings(moving_discs=discs, road_left_edge=edge, road_right_edge=right,
-                        leaders=(leader, bend), blockages=blockages, lane_lines=lines, lane_neighbours=neighbours)
+                        leaders=(leader, bend), blockages=blockages, lane_lines=lines)
 
 
 @pytest.mark.parametrize("name", list(specifications()))

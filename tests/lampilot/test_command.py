@@ -58,3 +58,46 @@ def test_a_directory_with_a_broken_file_exits_2_naming_the_file(tmp_path, capsys
     (tasks / "broken.json").write_text('{"commands": ["Go."], "samples": [{"env": {"type": "moon-v0"}}]}')
     assert main(["lampilot", str(tasks), "--out", str(tmp_path / "out")]) == 2
     assert "broken.json: samples[0].env.type: unknown scene 'moon-v0'" in capsys.readouterr().err
+
+
+def test_own_phrasings_replace_a_tasks_commands_and_speeds_can_be_asked_past_the_limit(tmp_path, capsys):
+    """``--phrasings`` runs the named tasks with the file's commands; ``--speed-requests as_asked`` lets a command
+    ask past the road's 31.29 m/s as LaMPilot's highway-env does (lawful: the rules keep to the limit, say so)."""
+    tasks = write_tasks(tmp_path / "tasks", ["speed_abs", "lane_left"])
+    phrasings = tmp_path / "mine.yaml"
+    phrasings.write_text("speed_abs: ['Cruise at 33 m/s.']\n")
+    for mode, v_ref in (("lawful", 31.29), ("as_asked", 33)):
+        out = tmp_path / mode
+        assert main(["lampilot", str(tasks), "--out", str(out), "--phrasings", str(phrasings), "--scenes", "1",
+                     "--speed-requests", mode, "--no-progress"]) in (0, 1)
+        cases = pd.read_csv(out / "cases.csv")
+        assert cases["task"].tolist() == ["speed_abs"] and cases["command"].tolist() == ["Cruise at 33 m/s."]
+        events = pd.read_csv(next((out / "runs").rglob("events.csv")))
+        applied = events[(events["event"] == "tool_call_received") & (events["tool"] == "set_reference_speed")]
+        assert json.loads(applied["arguments"].iloc[0]) == {"v_ref": v_ref} and bool(applied["ok"].iloc[0])
+        replies = " ".join(events[events["role"] == "assistant"]["content"].dropna())
+        assert ("above the road speed limit" in replies) == (mode == "lawful")
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("nope: ['Go.']\n", "'nope': no such task in the directory"),
+    ("speed_abs: []\n", "'speed_abs': a non-empty list of phrasings"),
+    ("[1, 2]\n", "a mapping of task names to lists of phrasings"),
+])
+def test_a_bad_phrasings_file_exits_2_naming_the_file_and_entry(tmp_path, capsys, text, message):
+    tasks = write_tasks(tmp_path / "tasks", ["speed_abs"])
+    (tmp_path / "mine.yaml").write_text(text)
+    assert main(["lampilot", str(tasks), "--out", str(tmp_path / "out"), "--phrasings",
+                 str(tmp_path / "mine.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "mine.yaml" in err and message in err and "Traceback" not in err
+
+
+def test_a_model_backend_is_shown_lampilots_manoeuvres_unless_told_otherwise():
+    from agentic_mpc.cli import build_parser
+    from agentic_mpc.commands.lampilot import agent_for
+
+    model = ["lampilot", "DIR", "--out", "OUT", "--backend", "openai", "--base-url", "http://127.0.0.1:1", "--model", "m"]
+    assert agent_for(build_parser().parse_args(model))["toolset"] == "lampilot"
+    assert agent_for(build_parser().parse_args([*model, "--agent", "toolset=all"]))["toolset"] == "all"
+    assert "toolset" not in agent_for(build_parser().parse_args(["lampilot", "DIR", "--out", "OUT"]))  # the rules

@@ -92,7 +92,9 @@ def test_the_server_registers_exactly_the_protocol_uris():
         protocol.SPECIFICATION_URI,
         protocol.INITIAL_SPECIFICATION_URI,
         protocol.POOL_URI,
+        protocol.TACTICS_URI,
         protocol.ROAD_URI,
+        protocol.MEMORY_URI,
     }
     assert resources == expected
     assert templates == [protocol.VEHICLE_URI_TEMPLATE]

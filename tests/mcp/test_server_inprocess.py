@@ -43,8 +43,10 @@ RESOURCES = {
     "sumo://emergency-vehicles",
     "sumo://obstacles",
     "mpc://specification",
+    "mpc://tactics",
     "mpc://specification/initial",
     "mpc://pool",
+    "agent://memory",
 }
 
 
@@ -140,6 +142,8 @@ def test_resources_and_template_read_as_json(server, loop):
         "mandatory", "path_tracking", "obstacle_avoidance", "preferred_steering_direction"
     }
     assert vehicle["vehicle"]["lane_role"] == "right" and ego["vehicle"]["id"] == "ego"
+    assert contents["mpc://tactics"] == {"rules": [], "active": None}  # the plain world offers no tactics
+    assert contents["agent://memory"] == {"profile": None, "entries": []}  # no agent, no memory
 
 
 def test_a_tool_call_changes_the_specification(server, loop):

@@ -60,7 +60,7 @@ def test_stdio_client_lists_reads_calls_and_is_refused_out_of_range():
         "change_reference_speed", "set_following_distance", "change_following_distance", "clear_following_distance",
         "overtake",
     ])
-    assert "sumo://traffic" in resources and "mpc://specification" in resources and len(resources) == 8
+    assert "sumo://traffic" in resources and "mpc://tactics" in resources and len(resources) == 10
     assert templates == ["sumo://vehicle/{vehicle_id}"]
     # the simulation advances in real time between the two reads
     assert second["time_s"] - first["time_s"] == pytest.approx(0.5, abs=0.3)

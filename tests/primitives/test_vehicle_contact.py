@@ -92,11 +92,10 @@ def test_fast_path_equals_reference_where_plans_touch():
     h = controller.config.horizon
     state = np.array([0.0, 0.0, 0.0, 3.0])
     k = np.arange(1, h + 1)[:, None]
-    # A car 5 m ahead crawling at 0.5 m/s, turned 0.2 rad, and one standing 2.2 m to the right (a follower's).
+    # A car 5 m ahead crawling at 0.5 m/s, turned 0.2 rad, and one standing 2.2 m to the right.
     ahead = MovingDisc(np.hstack([5.0 + 0.02 * k, np.zeros_like(k, dtype=float)]), 2.55,
                        np.tile([np.cos(0.2), np.sin(0.2)], (h, 1)), (2.6, 0.95), 2.4)
-    beside = MovingDisc(np.tile([0.5, -2.2], (h, 1)), 2.4, None, (0.0, 0.0), None, follower_side=-1.0,
-                        follower_gap_now_m=2.2)
+    beside = MovingDisc(np.tile([0.5, -2.2], (h, 1)), 2.4, None, (0.0, 0.0), None)
     prepared = Specification.of(mandatory=mandatory).prepare(controller.context(state, Surroundings((ahead, beside))))
     z = controller.sample().copy()
     fast, used_fast = controller.costs(prepared, state, z)

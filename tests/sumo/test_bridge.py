@@ -113,31 +113,6 @@ def test_stopped_vehicle_stays_on_its_lane():
         assert (state.x_m, state.y_m) == pytest.approx((200.0 - 2.25, 0.0))
 
 
-def test_a_driver_standing_at_its_min_gap_behind_an_obstacle_gets_room_to_edge_out():
-    """SUMO's sublane model counts a car standing at its minGap behind a stopped one as overlapping it, and
-    with its neighbours standing to let it in, the road stood for good (incident_in_traffic seed 913)."""
-    import libsumo
-
-    with SumoBridge(NET, [ROUTES], lateral_resolution_m=0.4) as sumo:
-        sumo.add_stopped_vehicle("obstacle", "road", "obstacle", edge_id="straight", lane_index=1, pos_m=200.0)
-        sumo.step()
-        at_min_gap_m = 200.0 - libsumo.vehicle.getLength("obstacle") - 2.5
-        sumo.add_vehicle("close", "road", "car", lane_index=1, pos_m=at_min_gap_m, speed_mps=0.0)
-        sumo.add_vehicle("far", "road", "car", lane_index=0, pos_m=60.0, speed_mps=0.0)
-        sumo.step()
-        own_gap_m, obstacle_gap_m = libsumo.vehicle.getMinGap("close"), libsumo.vehicle.getMinGap("obstacle")
-        assert sumo.edge_out_behind_obstacles(0.2) == ("close",)
-        assert libsumo.vehicle.getMinGap("close") == 0.2
-        # a car standing far behind and the obstacle itself keep theirs
-        assert (libsumo.vehicle.getMinGap("far"), libsumo.vehicle.getMinGap("obstacle")) == (own_gap_m, obstacle_gap_m)
-        assert sumo.edge_out_behind_obstacles(0.2) == ()  # given once
-        for _ in range(500):  # it pulls out past the obstacle: its own minGap back
-            sumo.step()
-        assert libsumo.vehicle.getLaneIndex("close") != 1 or libsumo.vehicle.getLanePosition("close") > 200.0
-        sumo.edge_out_behind_obstacles(0.2)
-        assert libsumo.vehicle.getMinGap("close") == own_gap_m
-
-
 def _wedged_truck(sumo: SumoBridge) -> float:
     """A truck standing at its minGap behind a stopped car in the lane beside, astride the line between (1.2 m over
     it), an external ego standing 1.4 m behind it: SUMO's standstill of incident_in_traffic seed 1311. Returns
@@ -181,39 +156,3 @@ def test_a_driver_wedged_astride_a_lane_line_by_a_stopped_car_is_moved_back_into
             else:  # left to SUMO, it stands astride for good
                 assert lateral_m == pytest.approx(-1.7, abs=0.01) and at_m == pytest.approx(192.5)
                 assert libsumo.vehicle.getSpeed("truck") == 0.0
-
-
-def _car_queued_before_a_standing_ego(standing_min_gap_m: float | None) -> tuple[int, float]:
-    """A car standing at its minGap behind an obstacle, the (external) ego standing 1 m behind it; after 20 s: the
-    car's lane and position, the bridge giving the standing ego ``standing_min_gap_m`` (None: never)."""
-    import libsumo
-
-    with SumoBridge(NET, [ROUTES], lateral_resolution_m=0.4) as sumo:
-        sumo.add_stopped_vehicle("obstacle", "road", "obstacle", edge_id="straight", lane_index=1, pos_m=200.0)
-        sumo.add_route("r", ["straight"])
-        sumo.add_external_vehicle("ego", "r", "ego", lane_index=1, pos_m=100.0, speed_mps=0.0)
-        head_front_m = 200.0 - libsumo.vehicle.getLength("obstacle") - 2.5
-        sumo.add_vehicle("head", "road", "car", lane_index=1, pos_m=head_front_m, speed_mps=0.0)
-        ego_x_m = head_front_m - libsumo.vehicle.getLength("head") - 1.0 - 0.5 * libsumo.vehicle.getLength("ego")
-        for step in range(500):
-            sumo.move_external("ego", ego_x_m, 0.0, 0.0, speed_mps=0.0)
-            sumo.step()
-            if standing_min_gap_m is not None and step % 25 == 0:
-                sumo.standing_min_gap(("ego",), standing_min_gap_m)
-                assert libsumo.vehicle.getMinGap("ego") == standing_min_gap_m
-        lane, pos_m = libsumo.vehicle.getLaneIndex("head"), libsumo.vehicle.getLanePosition("head")
-        if standing_min_gap_m is not None:  # moving, the ego has its own minGap back
-            sumo.move_external("ego", ego_x_m + 0.1, 0.0, 0.0, speed_mps=2.0)
-            sumo.step()
-            sumo.standing_min_gap(("ego",), standing_min_gap_m)
-            assert libsumo.vehicle.getMinGap("ego") == libsumo.vehicletype.getMinGap("ego")
-        return lane, pos_m
-
-
-def test_a_car_queued_before_the_standing_ego_pulls_out_once_the_ego_has_a_small_min_gap():
-    """SUMO's sublane model blocks a car's every sideways move while a follower stands closer than the follower's
-    minGap: the ego standing 1 m behind a car queued behind a stopped one held it, and the road, for good
-    (incident_in_traffic 4415, 4435). Standing, the ego has a 0.5 m minGap in SUMO, and the car pulls out."""
-    assert _car_queued_before_a_standing_ego(None) == (1, pytest.approx(193.0, abs=0.1))
-    lane, pos_m = _car_queued_before_a_standing_ego(0.5)
-    assert lane != 1 or pos_m > 200.0

@@ -1,4 +1,4 @@
-"""The compiled surroundings geometry (agentic_mpc.sumo.kernels) gives the NumPy / Python results it replaces
+"""The compiled surroundings geometry (agentic_mpc.polylines.kernels) gives the NumPy / Python results it replaces
 to the last bit: goldens pin whole runs, these pin the kernels on the shipped roads, including the edges of
 the lines, vertices, ties, far guesses and NaN."""
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from agentic_mpc.sumo import kernels
+from agentic_mpc.polylines import kernels
 from agentic_mpc.sumo.network import RoadNetwork
 from agentic_mpc.sumo.scenarios import curvy_traffic_config, scenario2_config
 

@@ -10,10 +10,13 @@ import pytest
 
 from agentic_mpc.controller import MPPIConfig
 from agentic_mpc.sumo.config import EgoStart, SumoConfig, SurroundingsConfig, VehicleSpawn
-from agentic_mpc.sumo.covers import disc_cover
 from agentic_mpc.sumo.scenarios import net_files
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder
 from agentic_mpc.sumo.world import SumoWorld
+from agentic_mpc.tactics.config import ALL_RULES, MergeAheadOfQueue, TacticsConfig
+from agentic_mpc.tactics.covers import disc_cover
+from agentic_mpc.tactics.detour import Detour
+from agentic_mpc.tactics.layer import TacticsLayer
 from tests.sumo.conftest import drive, sumo_loop
 
 
@@ -44,11 +47,52 @@ def curvy_config(**update: object) -> SumoConfig:
     return base.replace(**update)
 
 
-def builder_of(world: SumoWorld, **update: object) -> SurroundingsBuilder:
+def builder_of(world: SumoWorld, tactics: TacticsConfig = TacticsConfig(), **update: object) -> WithTactics:
     """The surroundings builder the run loop's controller gets (the default MPPI horizon), with ``update`` to its
-    surroundings config."""
-    return SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
-                               world.config.surroundings.model_copy(update=update))
+    surroundings config, and a tactics layer of ``tactics`` that plans each build as the run loop does."""
+    builder = SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
+                                  world.config.surroundings.model_copy(update=update))
+    return WithTactics(builder, TacticsLayer(tactics, builder.tactical_road))
+
+
+@dataclasses.dataclass
+class WithTactics:
+    """A builder whose :meth:`build` first asks the tactics layer for its plan, as ``RunLoop.step`` does."""
+
+    builder: SurroundingsBuilder
+    layer: TacticsLayer
+
+    def build(self, observation, ego_state, target_lane=None, passing_side=None):
+        plan = self.layer.plan(observation, target_lane, passing_side)
+        return self.builder.build(observation, ego_state, target_lane, plan)
+
+    def queues(self, observation):
+        return self.layer.queues(observation)
+
+    def passing_lanes(self, observation, target_lane):
+        return self.layer.plan(observation, target_lane).passing_lanes
+
+    def __getattr__(self, name):
+        found = getattr(self.builder, name)
+        if name not in ("discs", "leaders", "corridor"):
+            return found
+
+        def planned(observation, target_lane=None):  # what the plan opens (passing lanes, queue room) counts
+            self.builder._plan = self.layer.plan(observation, target_lane)
+            return found(observation, target_lane)
+
+        return planned
+
+
+WITHOUT_DETOURS = TacticsConfig(rules=("queue_room", "passing_lanes", "gap_acceptance"))
+WITHOUT_MERGE_AHEAD = TacticsConfig(rules=ALL_RULES[:-1])
+
+
+def detour(within_m: float | None = 80.0) -> Detour:
+    """The detour rules with ``merge_ahead_of_queue`` at ``within_m`` (None: without it)."""
+    if within_m is None:
+        return Detour(WITHOUT_MERGE_AHEAD)
+    return Detour(TacticsConfig(merge_ahead_of_queue=MergeAheadOfQueue(within_m=within_m)))
 
 
 def test_constant_speed_prediction_matches_sumo_on_a_curve():
@@ -83,8 +127,8 @@ def test_followers_in_lane_are_left_out_and_neighbours_are_in():
 
 
 def test_a_leader_gets_a_following_distance_that_never_covers_the_ego():
-    leader = VehicleSpawn(id="leader", lane="center", pos_m=250.0, speed_mps=10.0, max_speed_mps=10.0)
-    extended = SurroundingsConfig(leader_time_headway_s=1.0, leader_standstill_gap_m=2.0)  # no longer the default
+    leader = VehicleSpawn(id="leader", lane="center", pos_m=240.0, speed_mps=10.0, max_speed_mps=10.0)
+    extended = SurroundingsConfig(leader_standstill_gap_m=2.0)
     with SumoWorld(curvy_config(vehicles=(leader,), surroundings=extended)) as world:
         builder, observation = builder_of(world), world.observation
         ego = observation.ego
@@ -95,11 +139,11 @@ def test_a_leader_gets_a_following_distance_that_never_covers_the_ego():
         plain = disc_cover(4.5, 1.8, 5.2, 2.0).offsets_m
         assert len(discs) > len(plain)  # extended backwards
         assert distance.min() > radius  # ... but not over the ego
-        # The extension reaches 2 m + 1 s * 15 m/s behind the plain cover when there is room (25 m gap here);
+        # The extension reaches 2 m behind the plain cover when there is room (15 m gap here);
         # centres[0] is the prediction one step ahead, when the leader has moved on by 10 m/s * 0.04 s.
         leader_obs = observation.vehicle("leader")
         reach_back = np.hypot(first[:, 0] - leader_obs.x_m, first[:, 1] - leader_obs.y_m).max()
-        assert reach_back == pytest.approx(abs(plain[0]) + 2.0 + 15.0 - 0.4, abs=0.02)
+        assert reach_back == pytest.approx(abs(plain[0]) + 2.0 - 0.4, abs=0.02)
 
 
 def test_edges_road_and_corridor():
@@ -180,7 +224,7 @@ def test_a_stopped_car_and_the_queue_behind_it_block_the_lane_together():
     car; the queue is not a time-gap leader (that would hold the ego behind it for ever) unless the ego is
     already nose to tail with it; and the lanes beside open to the corridor for going round."""
     from agentic_mpc.sumo.config import StaticObstacle
-    from agentic_mpc.sumo.queues import QUEUE_LEADER_WITHIN_M
+    from agentic_mpc.tactics.queues import QUEUE_LEADER_WITHIN_M
 
     obstacle = StaticObstacle(id="stopped", lane="center", pos_m=280.0)
     queue = (VehicleSpawn(id="queued1", lane="center", pos_m=273.0, lane_changes=False),
@@ -265,15 +309,14 @@ def test_beside_a_queue_in_the_tracked_lane_j1_follows_the_lane_the_ego_passes_i
         past = dataclasses.replace(observation, obstacles=tuple(dataclasses.replace(o, relation="behind")
                                                                 for o in observation.obstacles))
         assert builder.build(past, world.ego_state, target_lane=1).reference_shift_m == 0.0
-        off = SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
-                                  SurroundingsConfig(edges="corridor", detour_beside_queues=False))
+        off = builder_of(world, WITHOUT_DETOURS)
         assert off.build(observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
     with SumoWorld(beside.replace(ego=EgoStart(lane="center", pos_m=220.0, speed_mps=15.0))) as world:
         assert builder_of(world).build(world.observation, world.ego_state, target_lane=1).reference_shift_m == \
             pytest.approx(-3.5, abs=0.01)
         assert builder_of(world).build(world.observation, world.ego_state, 1, "left").reference_shift_m == \
             pytest.approx(3.5, abs=0.01)
-        in_line = builder_of(world, detour_ahead_of_queues_m=None)
+        in_line = builder_of(world, WITHOUT_MERGE_AHEAD)
         assert in_line.build(world.observation, world.ego_state, target_lane=1).reference_shift_m == 0.0
 
 
@@ -283,7 +326,7 @@ def test_in_the_lane_beside_a_lone_stopped_car_well_ahead_j1_follows_that_lane()
     ego's centre over the line (as in the paper), J1 stays on the tracked lane, unless the ego stands there (as
     after a yield beside the stopped car)."""
     from agentic_mpc.sumo.config import StaticObstacle
-    from agentic_mpc.sumo.queues import BESIDE_LONE_OBSTACLE_FROM_M
+    BESIDE_LONE_OBSTACLE_FROM_M = TacticsConfig().pass_beside_queue.lone_obstacle_from_m
 
     config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=280.0),),
                           ego=EgoStart(lane="right", pos_m=220.0, speed_mps=2.0),
@@ -312,7 +355,6 @@ def test_driving_towards_a_queue_j1_follows_the_lane_beside_on_the_preferred_sid
     the paper), farther than the distance, standing (the in-line start's), with an emergency vehicle within the
     distance, or with the switch off."""
     from agentic_mpc.sumo.config import StaticObstacle
-    from agentic_mpc.sumo.queues import Detour
 
     config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=280.0),),
                           ego=EgoStart(lane="center", pos_m=220.0, speed_mps=10.0),
@@ -323,35 +365,35 @@ def test_driving_towards_a_queue_j1_follows_the_lane_beside_on_the_preferred_sid
         queue = dataclasses.replace(lone, members=("queued",))
         assert 50.0 < queue.tail_gap_m < 60.0
 
-        def lane(detour: Detour, side: str | None = None, seen=observation, queues=(queue,)) -> int | None:
-            return detour.lane(seen, queues, 1, 80.0, centres, side)
+        def lane(rules: Detour, side: str | None = None, seen=observation, queues=(queue,)) -> int | None:
+            return rules.lane(seen, queues, 1, centres, side)
 
-        assert lane(Detour(80.0), "left") == 2 and lane(Detour(80.0), "right") == 0 and lane(Detour(80.0)) == 0
-        detour = Detour(80.0)
-        assert lane(detour, "left") == 2
+        assert lane(detour(80.0), "left") == 2 and lane(detour(80.0), "right") == 0 and lane(detour(80.0)) == 0
+        started = detour(80.0)
+        assert lane(started, "left") == 2
         crossing = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lane_index=2))
-        assert lane(detour, "left", crossing) == 2 and lane(detour, "left") == 2  # it lasts in both lanes
+        assert lane(started, "left", crossing) == 2 and lane(started, "left") == 2  # it lasts in both lanes
         past = dataclasses.replace(observation, obstacles=tuple(dataclasses.replace(o, relation="behind")
                                                                 for o in observation.obstacles))
-        assert lane(detour, "left", past, queues=()) is None  # a queue of an obstacle behind is none
-        assert lane(Detour(80.0), "left", queues=(lone,)) is None
-        assert lane(Detour(50.0), "left") is None
-        assert lane(Detour(None), "left") is None
+        assert lane(started, "left", past, queues=()) is None  # a queue of an obstacle behind is none
+        assert lane(detour(80.0), "left", queues=(lone,)) is None
+        assert lane(detour(50.0), "left") is None
+        assert lane(detour(None), "left") is None
         standing = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, speed_mps=0.0))
-        assert lane(Detour(80.0), "left", standing) is None
+        assert lane(detour(80.0), "left", standing) is None
         # From the edge lane the only lane beside is taken, whatever the preference.
         at_edge = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lane_index=0))
         edge_queue = dataclasses.replace(queue, lane_index=0)
-        assert Detour(80.0).lane(at_edge, (edge_queue,), 0, 80.0, centres, "right") == 1
+        assert detour(80.0).lane(at_edge, (edge_queue,), 0, centres, "right") == 1
     # An emergency vehicle within the distance: its rescue corridor passes the queue, the ego stays in line.
     with SumoWorld(config.replace(vehicles=(VehicleSpawn(id="ambulance", type_id="ambulance", lane="center",
                                                          pos_m=180.0, speed_mps=10.0),))) as world:
         observation = world.observation
         (ambulance,) = observation.emergency_vehicles
         assert ambulance.relation == "behind" and ambulance.distance_m < 80.0
-        assert Detour(80.0).lane(observation, (queue,), 1, 80.0, centres, "left") is None
+        assert detour(80.0).lane(observation, (queue,), 1, centres, "left") is None
         alone = dataclasses.replace(observation, emergency_vehicles=())
-        assert Detour(80.0).lane(alone, (queue,), 1, 80.0, centres, "left") == 2
+        assert detour(80.0).lane(alone, (queue,), 1, centres, "left") == 2
 
 
 def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_on_that_side():
@@ -360,7 +402,7 @@ def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_
     behind; 0.8 m left: the left lane. Straight behind, moving, farther back than a queued car stands, behind a
     queue's cars, or the lane on that side missing (the road's edge): J1 stays on the tracked lane."""
     from agentic_mpc.sumo.config import StaticObstacle
-    from agentic_mpc.sumo.queues import QUEUE_LINK_M
+    from agentic_mpc.tactics.queues import QUEUE_LINK_M
 
     config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=230.0),),
                           ego=EgoStart(lane="center", pos_m=217.0, speed_mps=0.0),
@@ -389,138 +431,17 @@ def test_standing_in_line_behind_a_stopped_car_partly_aside_j1_follows_the_lane_
         far = dataclasses.replace(far, ego=dataclasses.replace(ego, lateral_offset_m=-0.8))
         assert builder_of(world).build(far, world.ego_state, target_lane=1).reference_shift_m == 0.0
         # Behind a queue's cars it is the zipper's merge (J0's gap acceptance), not a detour.
-        from agentic_mpc.sumo.queues import Detour
-
+    
         aside = dataclasses.replace(observation, ego=dataclasses.replace(ego, lateral_offset_m=-0.8))
         centres = (-3.5, 0.0, 3.5)
-        assert Detour().lane(aside, (queue,), 1, 80.0, centres) == 0
-        assert Detour().lane(aside, (dataclasses.replace(queue, members=("queued",)),), 1, 80.0, centres) is None
+        assert detour(None).lane(aside, (queue,), 1, centres) == 0
+        assert detour(None).lane(aside, (dataclasses.replace(queue, members=("queued",)),), 1, centres) is None
     edge = config.replace(obstacles=(StaticObstacle(id="stopped", lane="right", pos_m=230.0),),
                           ego=EgoStart(lane="right", pos_m=217.0, speed_mps=0.0))
     with SumoWorld(edge) as world:
         observation = world.observation
         seen = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lateral_offset_m=-0.8))
         assert builder_of(world).build(seen, world.ego_state, target_lane=0).reference_shift_m == 0.0
-
-
-def test_coming_up_to_a_queue_j1_slows_to_a_speed_it_can_stop_from_with_room():
-    """A queue (a stopped car, two behind it) ahead in the ego's lane: J1's reference speed is capped at the
-    speed from which braking at approach_decel_mps2 stops the ego the model's pull-out room behind the last car
-    (at least 2 m/s), whichever lane J1 follows; a lone stopped car (the paper's Scenario 1), the ego in the lane
-    beside, or the cap off (the default): no cap."""
-    from agentic_mpc.sumo.config import StaticObstacle
-    from agentic_mpc.vehicle import PAPER_PARAMS
-
-    obstacle = StaticObstacle(id="stopped", lane="center", pos_m=295.0)
-    queue = (VehicleSpawn(id="queued1", lane="center", pos_m=288.0, lane_changes=False),
-             VehicleSpawn(id="queued2", lane="center", pos_m=281.0, lane_changes=False))
-    on = SurroundingsConfig(edges="corridor", approach_decel_mps2=2.0)
-    config = curvy_config(obstacles=(obstacle,), vehicles=queue, surroundings=on)
-    with SumoWorld(config) as world:
-        builder, observation = builder_of(world), world.observation
-        (blockage,) = builder.queues(observation)
-        room = PAPER_PARAMS.pull_out_distance_m(blockage.tail.radius_m)
-        assert 5.0 < room < 7.0 and blockage.tail_gap_m > room + 20.0
-        cap = builder.build(observation, world.ego_state, target_lane=1).reference_speed_cap_mps
-        assert cap == pytest.approx(math.sqrt(2.0 * 2.0 * (blockage.tail_gap_m - room)), rel=1e-12)
-        assert cap < 15.0
-        # J1 on the lane beside (a detour) while the ego is still in the queue's lane: the same cap
-        assert builder.build(observation, world.ego_state, target_lane=2).reference_speed_cap_mps == cap
-        nearly_there = dataclasses.replace(blockage, tail_gap_m=room + 0.3)
-        from agentic_mpc.sumo.queues import approach_speed_cap_mps
-
-        assert approach_speed_cap_mps((nearly_there,), 1, 2.0, PAPER_PARAMS.pull_out_distance_m) == 2.0
-        assert approach_speed_cap_mps((nearly_there,), 0, 2.0, PAPER_PARAMS.pull_out_distance_m) is None
-        alone = dataclasses.replace(blockage, members=())
-        assert approach_speed_cap_mps((alone,), 1, 2.0, PAPER_PARAMS.pull_out_distance_m) is None
-        off = SurroundingsBuilder(world.road, world.ego_length_m, world.ego_width_m, MPPIConfig().horizon, world.dt_s,
-                                  SurroundingsConfig(edges="corridor"))  # the default: off
-        assert off.build(observation, world.ego_state, target_lane=1).reference_speed_cap_mps is None
-    with SumoWorld(config.replace(ego=EgoStart(lane="right", pos_m=220.0, speed_mps=15.0))) as world:
-        surroundings = builder_of(world).build(world.observation, world.ego_state, target_lane=1)
-        assert surroundings.reference_speed_cap_mps is None  # passing it in the lane beside (the detour's)
-
-
-def test_driving_towards_a_queue_the_merge_can_wait_for_room_in_the_lane_beside_and_slow_meanwhile():
-    """``detour_merge_waits_from_mps`` (off by default): the detour towards a queue takes the lane beside only with
-    room in it. With a car alongside there, J1 keeps the ego's lane and its reference slows to stop with room behind
-    the queue (braking at 2 m/s²); with the car far behind, J1 follows the lane beside and nothing is capped. A follower closer than 2 m + 0.5 s of its speed + its
-    braking distance (2 m/s²) down to the ego's speed, or a car ahead within 2 m, leaves no room either. Once the
-    ego's centre is in the lane beside, the merge goes on whatever is there; slower than the option's 8 m/s it does not
-    wait (J0's gap acceptance decides the zipper), nor with the option off."""
-    from agentic_mpc.sumo.config import StaticObstacle
-    from agentic_mpc.sumo.queues import MERGE_WAIT_DECEL_MPS2, Detour, room_to_merge
-    from agentic_mpc.vehicle import PAPER_PARAMS
-
-    queue = (VehicleSpawn(id="queued1", lane="center", pos_m=288.0, lane_changes=False),
-             VehicleSpawn(id="queued2", lane="center", pos_m=281.0, lane_changes=False))
-    beside = VehicleSpawn(id="beside", lane="right", pos_m=220.0, speed_mps=15.0, lane_changes=False)
-    config = curvy_config(obstacles=(StaticObstacle(id="stopped", lane="center", pos_m=295.0),),
-                          vehicles=(*queue, beside), surroundings=SurroundingsConfig(edges="corridor"))
-    with SumoWorld(config) as world:
-        observation = world.observation
-        (car,) = [v for v in observation.traffic if v.id == "beside"]
-        assert car.relation == "alongside" and car.lane_index == 0
-        builder = builder_of(world, detour_merge_waits_from_mps=8.0)
-        (blockage,) = builder.queues(observation)
-        assert blockage.members and 30.0 < blockage.tail_gap_m < 80.0
-        off = builder_of(world).build(observation, world.ego_state, target_lane=1, passing_side="right")
-        assert off.reference_shift_m == pytest.approx(-3.5, abs=0.01) and off.reference_speed_cap_mps is None
-        waiting = builder.build(observation, world.ego_state, target_lane=1, passing_side="right")
-        room = PAPER_PARAMS.pull_out_distance_m(blockage.tail.radius_m)
-        assert waiting.reference_shift_m == 0.0
-        assert waiting.reference_speed_cap_mps == pytest.approx(
-            math.sqrt(2.0 * MERGE_WAIT_DECEL_MPS2 * (blockage.tail_gap_m - room)), rel=1e-12)
-        assert waiting.reference_speed_cap_mps < 15.0
-
-        def with_car(**update: object):
-            traffic = tuple(dataclasses.replace(v, **update) if v.id == "beside" else v for v in observation.traffic)
-            return dataclasses.replace(observation, traffic=traffic)
-
-        far_behind = with_car(relation="behind", gap_m=40.0)
-        merging = builder.build(far_behind, world.ego_state, target_lane=1, passing_side="right")
-        assert merging.reference_shift_m == pytest.approx(-3.5, abs=0.01) and merging.reference_speed_cap_mps is None
-        # a follower at 15 m/s, the ego at 15 m/s: 2 + 7.5 m; at 20 m/s: 2 + 10 + 6.25 m
-        assert room_to_merge(with_car(relation="behind", gap_m=9.6), 0)
-        assert not room_to_merge(with_car(relation="behind", gap_m=9.4), 0)
-        assert not room_to_merge(with_car(relation="behind", gap_m=18.0, speed_mps=20.0), 0)
-        assert room_to_merge(with_car(relation="behind", gap_m=18.4, speed_mps=20.0), 0)
-        assert not room_to_merge(with_car(relation="ahead", gap_m=1.5), 0)
-        assert room_to_merge(with_car(relation="ahead", gap_m=2.5), 0)
-        assert not room_to_merge(observation, 0) and room_to_merge(observation, 2)
-        detour, centres = Detour(80.0, merge_waits_from_mps=8.0), (-3.5, 0.0, 3.5)
-        assert detour.lane(observation, (blockage,), 1, 80.0, centres, "right") is None
-        assert detour.waiting_decel_mps2 == MERGE_WAIT_DECEL_MPS2
-        crossed = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, lane_index=0))
-        assert detour.lane(far_behind, (blockage,), 1, 80.0, centres, "right") == 0
-        assert detour.lane(crossed, (blockage,), 1, 80.0, centres, "right") == 0
-        assert detour.waiting_decel_mps2 is None
-        slow = dataclasses.replace(observation, ego=dataclasses.replace(observation.ego, speed_mps=7.9))
-        assert Detour(80.0, merge_waits_from_mps=8.0).lane(slow, (blockage,), 1, 80.0, centres, "right") == 0
-        assert Detour(80.0).lane(observation, (blockage,), 1, 80.0, centres, "right") == 0  # off
-
-
-def test_a_vehicle_from_behind_in_a_lane_beside_is_a_follower_charged_only_for_coming_closer():
-    vehicles = (
-        VehicleSpawn(id="behind_left", lane="left", pos_m=214.0, speed_mps=17.0),
-        VehicleSpawn(id="ahead_right", lane="right", pos_m=226.0, speed_mps=15.0),
-    )
-    with SumoWorld(curvy_config(vehicles=vehicles)) as world:
-        observation = world.observation
-        behind, ahead = observation.vehicle("behind_left"), observation.vehicle("ahead_right")
-        assert behind.offset_m < 0.0 < ahead.offset_m
-        builder = builder_of(world, followers_charge_approach=True)
-        discs = builder.discs(observation)
-        plain = builder_of(world).discs(observation)  # off by default
-        ego = observation.ego
-        ego_lateral = builder._lane_centres[ego.lane_index] + ego.lateral_offset_m
-    gap_left = builder._lane_centres[behind.lane_index] + behind.lateral_offset_m - ego_lateral
-    assert gap_left > 2.5
-    followers = [d for d in discs if d.follower_side != 0.0]
-    assert followers and {d.follower_side for d in followers} == {1.0}  # on the left
-    assert all(d.follower_gap_now_m == pytest.approx(gap_left, abs=0.01) for d in followers)
-    assert len(followers) < len(discs)  # the one ahead on the right is charged as before
-    assert len(plain) == len(discs) and {d.follower_side for d in plain} == {0.0}
 
 
 @pytest.mark.parametrize(("follower_pos_m", "lets_in"), [(212.0, False), (195.0, True)])
@@ -539,11 +460,11 @@ def test_a_follower_beside_a_blockage_is_predicted_to_let_the_ego_in_only_where_
         builder, observation = builder_of(world), world.observation
         assert 2 in builder.passing_lanes(observation, target_lane=1)
         discs = builder.discs(observation, target_lane=1)
-    config, horizon_s = builder.config, builder._horizon_s
+    config, horizon_s = TacticsConfig().gap_acceptance, builder._horizon_s
     seen = observation.vehicle("follower")
     closing = seen.speed_mps - observation.ego.speed_mps
-    braking_mps2 = config.follower_yield_mps2 + config.follower_yield_merge_accel_mps2
-    needed_m = closing**2 / (2 * braking_mps2) + config.leader_standstill_gap_m
+    braking_mps2 = config.follower_yield_mps2 + config.merge_accel_mps2
+    needed_m = closing**2 / (2 * braking_mps2) + config.standstill_gap_m
     assert (seen.gap_m >= needed_m) is lets_in
     travelled_m = [float(np.hypot(*(d.centres[-1] - d.centres[0]))) for d in discs]
     predicted_mps = seen.speed_mps - (0.5 * config.follower_yield_mps2 * horizon_s if lets_in else 0.0)
@@ -551,37 +472,3 @@ def test_a_follower_beside_a_blockage_is_predicted_to_let_the_ego_in_only_where_
     assert discs and travelled_m == pytest.approx([predicted_m] * len(discs), rel=0.01)
 
 
-def test_lane_neighbours_are_the_nearest_behind_and_ahead_in_the_lane_the_ego_may_enter():
-    vehicles = (
-        VehicleSpawn(id="left_behind", lane="left", pos_m=207.0, speed_mps=15.5),
-        VehicleSpawn(id="right_behind", lane="right", pos_m=200.0, speed_mps=16.5),
-        VehicleSpawn(id="right_ahead", lane="right", pos_m=228.0, speed_mps=15.5),
-        VehicleSpawn(id="same_lane_ahead", lane="center", pos_m=240.0, speed_mps=14.0),
-    )
-    with SumoWorld(curvy_config(vehicles=vehicles)) as world:
-        observation = world.observation
-        builder = builder_of(world, lane_neighbours=True)
-        assert builder_of(world).build(observation, world.ego_state, target_lane=0).lane_neighbours == ()  # off
-        expected = {v.id: v for v in observation.traffic}
-        assert set(expected) == {v.id for v in vehicles}
-        lane_of = {name: expected[name].lane_index for name in expected}
-        # J1 on the lane to the left: only its car; on the lane to the right: both of its; on its own lane: none
-        to_left = builder.build(observation, world.ego_state, target_lane=lane_of["left_behind"]).lane_neighbours
-        to_right = builder.build(observation, world.ego_state, target_lane=lane_of["right_ahead"]).lane_neighbours
-        holding = builder.build(observation, world.ego_state, target_lane=observation.ego.lane_index).lane_neighbours
-        ego = observation.ego
-        lane_centre = {i: 0.5 * (left + right) for i, (left, right) in enumerate(world.road.lane_bounds_m)}
-        ego_lateral = lane_centre[ego.lane_index] + ego.lateral_offset_m
-    assert (len(to_left), len(to_right), len(holding)) == (1, 2, 0)
-    for name, neighbours in (("left_behind", to_left), ("right_behind", to_right), ("right_ahead", to_right)):
-        vehicle = expected[name]
-        neighbour = min(neighbours, key=lambda n: float(np.hypot(*(n.centres[0] - (vehicle.x_m, vehicle.y_m)))))
-        assert np.hypot(*(neighbour.centres[0] - (vehicle.x_m, vehicle.y_m))) < vehicle.speed_mps * 0.04 + 0.1
-        assert neighbour.speed_mps == pytest.approx(vehicle.speed_mps)
-        assert neighbour.contact_m == pytest.approx(0.5 * (vehicle.length_m + world.ego_length_m))
-        lane_width = world.road.lane_widths_m[vehicle.lane_index]
-        assert neighbour.lane_reach_m == pytest.approx(0.5 * (lane_width + world.ego_width_m))
-        # how far the ego's body is in that lane now: outside, by its distance to the lane's centre less the reach
-        distance = abs(lane_centre[vehicle.lane_index] - ego_lateral)
-        assert neighbour.entry_depth_now_m == pytest.approx(neighbour.lane_reach_m - distance, abs=0.02)
-        assert neighbour.entry_depth_now_m < 0.0

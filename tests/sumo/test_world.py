@@ -353,21 +353,3 @@ def test_the_ego_enters_at_the_speed_of_the_car_it_finds_close_ahead():
     far = matched.replace(ego=EgoStart(lane="center", pos_m=100.0, speed_mps=15.0, match_leader_within_m=5.0))
     with SumoWorld(far) as world:  # the car is further ahead than that: the configured speed
         assert world.ego_state[3] == 15.0
-
-
-def test_with_obstacles_the_standing_ego_can_have_a_small_min_gap_in_sumo():
-    """``ego_standing_min_gap_m``: the ego's minGap in SUMO while it stands, its own once it moves (off by default)."""
-    import libsumo
-
-    obstacle = StaticObstacle(id="obstacle", lane="center", pos_m=250.0)
-    config = straight_config(obstacles=(obstacle,), ego_standing_min_gap_m=0.5,
-                             ego=EgoStart(lane="center", pos_m=100.0, speed_mps=0.0))
-    with SumoWorld(config) as world:
-        own_m = libsumo.vehicle.getMinGap("ego")
-        for _ in range(50):  # standing: checked once a second
-            world.advance(0.0, 0.0, 1.0)
-        standing_m = libsumo.vehicle.getMinGap("ego")
-        for _ in range(75):
-            world.advance(0.0, 1.0, 0.0)
-        assert (own_m, standing_m, libsumo.vehicle.getMinGap("ego")) == (2.5, 0.5, 2.5)
-    assert SumoConfig.model_fields["ego_standing_min_gap_m"].default is None

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from agentic_mpc.vehicle import throttle_for_steady_speed
-from agentic_mpc.world.emergency import EmergencyDetector
+from agentic_mpc.world.emergency import EmergencyDetector, EmergencyEvent
 from agentic_mpc.world.observation import (
     EgoObservation,
     EmergencyVehicleObservation,
@@ -112,3 +112,16 @@ def test_an_ambulance_held_up_behind_the_ego_never_passes():
     events = _drive(PlainConfig(vehicles=(ambulance,)), 20.0, detector)
     assert [e.kind for e in events] == ["emergency_vehicle_approaching"]
     assert events[0].time_s == 0.0  # within the alert distance from the start
+
+
+def test_every_event_is_kept_in_order_and_read_back_from_its_json():
+    # the agent's observation messages are these events as sumo://emergency-vehicles lists them
+    detector = EmergencyDetector()
+    detector.update(observation(2.0, emergency("amb", "behind", 60.123456)))
+    detector.update(observation(9.0))  # it left the world
+    assert [e.kind for e in detector.events] == ["emergency_vehicle_approaching", "emergency_vehicle_passed"]
+    read = [EmergencyEvent.from_json(e.to_json()) for e in detector.events]
+    assert [e.message() for e in read] == [e.message() for e in detector.events]
+    assert read[0].distance_m == 60.123 and read[1].distance_m is None
+    with pytest.raises(ValueError, match="not an emergency-vehicle event"):
+        EmergencyEvent.from_json({"kind": "siren", "time_s": 1.0, "vehicles": [], "distance_m": None})

@@ -7,14 +7,23 @@ from __future__ import annotations
 from typing import Any
 
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ToolSpec
-from agentic_mpc.agent.settings import BACKENDS
+
+
+def __getattr__(name: str) -> Any:
+    """``BACKENDS`` on first use: the registry (agent/settings.py) imports the backends' modules, so this
+    package must load without it."""
+    if name == "BACKENDS":
+        from agentic_mpc.agent.settings import BACKENDS
+
+        return BACKENDS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def make_backend(name: str, *, lefthand: bool = True, **options: Any) -> Backend:
-    """A backend by name with ``options`` as its settings (agent/settings.py: ``OpenAISettings`` fields for
-    ``openai``, ``LlamaCppSettings`` for ``llamacpp``, which checks and loads the model file now and raises
-    ``ModelFileError``, a ``ValueError``, if it is missing or not GGUF). ``lefthand``: the road the rules
-    backend pulls over on (its ``yield_lane`` default)."""
+    """A backend by name with ``options`` as its settings (``OpenAISettings`` fields for ``openai``,
+    ``LlamaCppSettings`` for ``llamacpp``, each beside its backend; the latter checks and loads the model file
+    now and raises ``ModelFileError``, a ``ValueError``, if it is missing or not GGUF). ``lefthand``: the road
+    the rules backend pulls over on (its ``yield_lane`` default)."""
     from pydantic import ValidationError
 
     from agentic_mpc.agent.settings import BACKEND_SETTINGS, agent_settings

@@ -38,6 +38,8 @@ UNPARSED = "unparsed_tool_call"
 
 _ARGUMENT_KEYS = ("arguments", "parameters", "args", "input", "params")
 _NAME_KEYS = ("name", "tool", "tool_name", "function_name")
+_BARE_CALL = re.compile(r"\s*`?[A-Za-z_][\w]*\s*\([^()]*\)`?\s*\.?\s*")
+"""A reply that is nothing but ``tool(arg=value)`` (a small model in json_schema mode wrote its call so)."""
 _REPLY_KEYS = ("reply", "response", "answer", "text")
 _TAG = re.compile(r"<\|?tool_call\|?>\s*(.*?)\s*(?:<\|?/tool_call\|?>|$)", re.DOTALL)
 _FENCE = re.compile(r"```[ \t]*([A-Za-z_-]*)[ \t]*\n?(.*?)(?:```|$)", re.DOTALL)
@@ -180,9 +182,16 @@ class _Reader:
             arguments = next((item[k] for k in _ARGUMENT_KEYS if k in item), None)
             self.call(name.strip(), arguments, raw)
             return True
-        reply = next((item[k] for k in _REPLY_KEYS if isinstance(item.get(k), str)), None)
-        if reply is not None and len(item) == 1:
-            self.replies.append(reply)
+        key = next((k for k in _REPLY_KEYS if isinstance(item.get(k), str)), None)
+        if key is not None and set(item) <= {key, "cite"}:  # a reply, with the document it cites
+            if self.structured and _BARE_CALL.fullmatch(item[key]):  # a call written as the reply's text
+                before = len(self.calls)
+                self.python_calls(item[key])
+                if len(self.calls) > before:
+                    return True
+            cite = item.get("cite")
+            cited = isinstance(cite, str) and cite.strip() and cite.strip() not in item[key]
+            self.replies.append(f"{item[key]} [{cite.strip()}]" if cited else item[key])
             return True
         if len(item) == 1:
             ((key, value),) = item.items()

@@ -15,14 +15,81 @@ from __future__ import annotations
 import itertools
 import json
 from collections.abc import Sequence
-from typing import Any
+from dataclasses import replace
+from typing import Any, ClassVar, Literal
 
-from agentic_mpc.agent.backends.base import BackendError, BackendReply, ModelUsage, ToolSpec
+from pydantic import Field
+
+from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ModelUsage, ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX, calls_from_text, parse_arguments
 from agentic_mpc.agent.backends.context import ContextWindow
-from agentic_mpc.agent.backends.structured import render_messages, response_format
+from agentic_mpc.agent.backends.structured import ToolMode, render_messages, response_format
+from agentic_mpc.agent.compact_prompt import compact_history, compact_system_prompt
+from agentic_mpc.agent.config import AgentConfig, AgentRunSettings
 from agentic_mpc.agent.messages import Message, ToolCall
-from agentic_mpc.agent.settings import ChatSettings
+from agentic_mpc.agent.prompt import system_prompt as full_system_prompt
+from agentic_mpc.agent.retrieval import SEARCH_SUFFIX, compact_search_result
+from agentic_mpc.agent.toolset import Toolset, converted, model_facing, offered, short_description, signature
+
+
+class ChatSettings(AgentRunSettings):
+    """What both language-model backends have (each adds its ``backend`` and how it reaches the model)."""
+
+    DEFAULT_TOOL_MODE: ClassVar[ToolMode] = "native"
+    tool_mode: ToolMode | None = Field(
+        None, description="native tool calls, or the answer constrained to one call or a reply by a JSON schema "
+                          "of the tools (default: native for openai, json_schema for llamacpp)")
+    temperature: float = Field(0.0, ge=0, le=2, description="sampling temperature")
+    max_tokens: int = Field(512, ge=1, le=32768, description="tokens per answer")
+    extra_body: dict[str, Any] = Field(default_factory=dict, description="merged into every request body "
+                                                                         "(e.g. top_p)")
+    timeout_s: float = Field(120.0, gt=0, description="seconds per answer; the agent step's own timeout is this "
+                                                      "plus 5 s, so the backend's runs out first")
+    context_tokens: int | None = Field(
+        None, ge=256, description="the model's context in tokens: older steps of the history are left out of a "
+                                  "request that would not fit (null: never; llamacpp: its ctx_size)")
+    rules_first: bool = Field(False, description="the rules backend answers what it understands, the model the "
+                                                 "rest (agent/backends/rules_first.py)")
+    prompt: Literal["compact", "full"] = Field(
+        "compact", description="compact: the system message a small model can use (the tools of this road, one "
+                               "line each, speeds with a unit; agent/compact_prompt.py); full: every tool with "
+                               "its whole description (agent/prompt.py)")
+    toolset: Toolset = Field(
+        "auto", description="compact prompt: the tools offered to the model (auto and paper: the paper's; "
+                            "lampilot: with LaMPilot's manoeuvres; all), the rest when a message asks for them "
+                            "(agent/toolset.py)")
+
+    def agent_config(self, **runtime: Any) -> AgentConfig:
+        runtime.setdefault("backend_timeout_s", self.timeout_s + 5.0)  # the backend's own timeout runs out first
+        return super().agent_config(**runtime)
+
+    def with_rules_first(self, model: Backend, lefthand: bool) -> Backend:
+        """``model``, or the rules in front of it when ``rules_first`` is set."""
+        if not self.rules_first:
+            return model
+        from agentic_mpc.agent.backends.rules import RulesBackend
+        from agentic_mpc.agent.backends.rules_first import RulesFirst
+
+        return RulesFirst(RulesBackend(yield_lane="left" if lefthand else "right"), model)
+
+    @property
+    def context_limit_tokens(self) -> int | None:
+        """The history must fit into this many tokens (None: no limit known)."""
+        return None if self.context_tokens is None else max(128, self.context_tokens - self.max_tokens)
+
+    @property
+    def effective_tool_mode(self) -> ToolMode:
+        return self.tool_mode or self.DEFAULT_TOOL_MODE
+
+
+def retrieved_ids(history: Sequence[Message]) -> tuple[str, ...]:
+    """The documents retrieved for the step being answered (the last message from outside the model's own
+    answers, ``data["retrieved"]``: agent/retrieval.py), for the reply to cite."""
+    for message in reversed(history):
+        if message.role == "user" and message.source != "agent":
+            found = (message.data or {}).get("retrieved") or []
+            return tuple(dict.fromkeys(str(item) for item in found))
+    return ()
 
 
 class ChatBackend:
@@ -33,6 +100,7 @@ class ChatBackend:
     config: ChatSettings
 
     def __init__(self) -> None:
+        self._all_tools: list[ToolSpec] = []
         self._ids = itertools.count(1)
         self._text_ids = itertools.count(1)
         self._window: ContextWindow | None = None
@@ -44,16 +112,52 @@ class ChatBackend:
             self._window = ContextWindow(self.config.context_limit_tokens)
         return self._window
 
+    @property
+    def compact(self) -> bool:
+        return self.config.prompt == "compact"
+
+    def system_prompt(self, initial: dict[str, Any] | None, tools: Sequence[ToolSpec], extra: str = "",
+                      road: dict[str, Any] | None = None) -> str:
+        """The system message this backend's model reads (the agent asks for it when it starts)."""
+        if not self.compact:
+            return full_system_prompt(initial, tools, extra, road=road)
+        return compact_system_prompt(initial, tools, extra, road=road, toolset=self.config.toolset,
+                                     tool_mode=self.config.effective_tool_mode)
+
+    def offered_tools(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> list[ToolSpec]:
+        """What the model is shown for the step being answered: every tool (full prompt), or the toolset's
+        and those the step's message asks for, speeds with a unit (compact; agent/toolset.py)."""
+        if not self.compact:
+            return list(tools)
+        asked = next((m.content for m in reversed(history) if m.role == "user" and m.source != "agent"), None)
+        return [model_facing(t) for t in offered(tools, self.config.toolset, asked)]
+
+    def _rendered(self, history: Sequence[Message], shown: Sequence[ToolSpec]) -> list[dict[str, Any]]:
+        fitted = self.window.fit(history)
+        if self.compact:  # the situation and the earlier steps in a few lines; tools the message brought named
+            fitted = [replace(m, content=compact_search_result(m.content)) if m.role == "tool"
+                      and (m.name or "").endswith(SEARCH_SUFFIX) else m for m in compact_history(fitted)]
+            base = {t.name for t in offered(self._all_tools, self.config.toolset)}
+            extra = [t for t in shown if t.name not in base]
+            if extra and fitted and fitted[-1].role == "user":
+                note = "Also for this message: " + "; ".join(f"{signature(t)}: {short_description(t)}" for t in extra)
+                fitted[-1] = replace(fitted[-1], context="\n\n".join(filter(None, [fitted[-1].context, note])))
+        return render_messages(fitted, self.config.effective_tool_mode)
+
     def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> dict[str, Any]:
+        self._all_tools = list(tools)
+        shown = self.offered_tools(history, tools)
         body: dict[str, Any] = {
-            "messages": render_messages(self.window.fit(history), self.config.effective_tool_mode),
+            "messages": self._rendered(history, shown),
             "temperature": self.config.temperature,
         }
         if self.config.effective_tool_mode == "json_schema":
             after_results = bool(history) and history[-1].role == "tool"
-            body["response_format"] = response_format(tools, after_results=after_results)
-        elif tools:
-            body["tools"] = [t.to_openai() for t in tools]
+            body["response_format"] = response_format(shown, after_results=after_results,
+                                                      cites=retrieved_ids(history) if self.compact else ())
+        elif shown:  # the tools a message brought are named in it: a stable list keeps the cached prefix
+            stable = {t.name for t in offered(tools, self.config.toolset)} if self.compact else None
+            body["tools"] = [t.to_openai() for t in shown if stable is None or t.name in stable]
             body["tool_choice"] = "auto"
         if self.config.max_tokens is not None:
             body["max_tokens"] = self.config.max_tokens
@@ -73,7 +177,14 @@ class ChatBackend:
         except (KeyError, IndexError, TypeError) as error:
             raise BackendError(f"{self.name}: no chat completion ({error!r}): {json.dumps(data)[:300]!r}") from error
         reply = self.parse_message(message, [t.name for t in tools])
-        return BackendReply(reply.text, reply.tool_calls, ModelUsage.from_response(data))
+        calls, text = list(reply.tool_calls), reply.text
+        if self.compact:  # speeds to m/s, within the limit (agent/toolset.py): the model's units not trusted
+            notes = []
+            for index, call in enumerate(calls):
+                calls[index], note = converted(call, tools)
+                notes += [note] if note else []
+            text = " ".join([text, *notes]).strip() if notes else text
+        return BackendReply(text, tuple(calls), ModelUsage.from_response(data))
 
     async def warm(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> ModelUsage | None:
         """Have the model read ``history`` (the system message) into its prompt cache: a request for one

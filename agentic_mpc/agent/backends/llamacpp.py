@@ -22,10 +22,13 @@ from __future__ import annotations
 import asyncio
 import threading
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Literal
 
-from agentic_mpc.agent.backends.base import BackendError
-from agentic_mpc.agent.backends.chat import ChatBackend
+from pydantic import Field, field_validator
+
+from agentic_mpc.agent.backends.base import Backend, BackendError
+from agentic_mpc.agent.backends.chat import ChatBackend, ChatSettings
+from agentic_mpc.agent.backends.structured import ToolMode
 
 GGUF_MAGIC = b"GGUF"
 INSTALL_HINT = 'the llamacpp backend needs xllamacpp: pip install "agentic-mpc[llm]"'
@@ -60,12 +63,42 @@ def _import_xllamacpp() -> Any:
     return xllamacpp
 
 
+class LlamaCppSettings(ChatSettings):
+    """A GGUF model in this process through xllamacpp (the ``llm`` extra)."""
+
+    DEFAULT_TOOL_MODE: ClassVar[ToolMode] = "json_schema"
+    backend: Literal["llamacpp"] = "llamacpp"
+    model: Path = Field(..., description="the GGUF model file")
+    threads: int = Field(1, ge=1, le=256, description="CPU threads for generation and prompt processing")
+    ctx_size: int = Field(8192, ge=256, le=1_048_576, description="context size in tokens")
+    gpu_layers: int = Field(-1, ge=-1, description="layers offloaded to a GPU (-1: llama.cpp decides; 0: none)")
+    verbose: bool = Field(False, description="llama.cpp's own log on stderr")
+    rules_first: bool = Field(True, description="the rules backend answers what it understands, the model the "
+                                                "rest (agent/backends/rules_first.py); on by default for a model "
+                                                "in process, a small one on a CPU (docs/llm-backends.md: 111 of "
+                                                "121 suite cases against 60 for Qwen2.5-Coder-1.5B alone)")
+
+    @property
+    def context_limit_tokens(self) -> int:
+        """The history must fit into this many tokens: the context, less one answer."""
+        return max(128, min(self.context_tokens or self.ctx_size, self.ctx_size) - self.max_tokens)
+
+    @field_validator("model")
+    @classmethod
+    def _a_gguf_file(cls, model: Path) -> Path:
+        """The file must be there before anything starts (said with the YAML path or the flag)."""
+        return check_gguf(model)
+
+    def build_backend(self, lefthand: bool) -> Backend:
+        return self.with_rules_first(LlamaCppBackend(self), lefthand)
+
+
 class LlamaCppBackend(ChatBackend):
     """A GGUF model in process (see the module docstring)."""
 
     name = "llamacpp"
 
-    def __init__(self, config: Any) -> None:  # a LlamaCppSettings (agent/settings.py), its model file checked
+    def __init__(self, config: LlamaCppSettings) -> None:
         super().__init__()
         self.config = config
         path = check_gguf(config.model)

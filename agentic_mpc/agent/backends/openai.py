@@ -38,15 +38,30 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal
 
-import httpx
+from pydantic import Field
 
-from agentic_mpc.agent.backends.base import BackendError, ToolSpec
+from agentic_mpc.agent.backends.base import Backend, BackendError, ToolSpec
 from agentic_mpc.agent.backends.call_parsing import parse_arguments
-from agentic_mpc.agent.backends.chat import ChatBackend
+from agentic_mpc.agent.backends.chat import ChatBackend, ChatSettings
 from agentic_mpc.agent.messages import Message
-from agentic_mpc.agent.settings import OpenAISettings
+
+if TYPE_CHECKING:  # httpx is imported when the backend first sends: a scenario's settings load without it
+    import httpx
+
+
+class OpenAISettings(ChatSettings):
+    """Any OpenAI-compatible chat-completions endpoint (Ollama, vLLM, llama.cpp's server, OpenAI)."""
+
+    backend: Literal["openai"] = "openai"
+    base_url: str = Field("http://localhost:11434/v1", description="the endpoint's /v1 URL (default Ollama's)")
+    model: str = Field("granite4:micro", description="the model name")
+    api_key_env: str | None = Field("OPENAI_API_KEY", description="environment variable holding the API key "
+                                    "(sent as a bearer token when it is set; null: never)")
+
+    def build_backend(self, lefthand: bool) -> Backend:
+        return self.with_rules_first(OpenAIBackend(self), lefthand)
 
 
 class OpenAIBackend(ChatBackend):
@@ -74,6 +89,8 @@ class OpenAIBackend(ChatBackend):
         return {"model": self.config.model, **super().request_body(history, tools)}
 
     async def send(self, body: dict[str, Any]) -> dict[str, Any]:
+        import httpx
+
         if self._client is None:
             self._client = httpx.AsyncClient(timeout=self.config.timeout_s)
         try:
@@ -98,4 +115,4 @@ class OpenAIBackend(ChatBackend):
             self._client = None
 
 
-__all__ = ["OpenAIBackend", "parse_arguments"]
+__all__ = ["OpenAIBackend", "OpenAISettings", "parse_arguments"]

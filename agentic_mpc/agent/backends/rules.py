@@ -40,10 +40,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
+
+from pydantic import Field
 
 from agentic_mpc.agent.backends import rules_knowledge as knowledge
 from agentic_mpc.agent.backends import rules_speeds as speeds
+from agentic_mpc.agent.backends import rules_understanding as understanding
 from agentic_mpc.agent.backends.base import BackendReply, ToolSpec
 from agentic_mpc.agent.backends.rules_lexicon import (
     KMH_TO_MPS,
@@ -67,6 +70,8 @@ from agentic_mpc.agent.backends.rules_parsing import (
     speed_phrases,
 )
 from agentic_mpc.agent.backends.rules_state import DrivingState, driving_states
+from agentic_mpc.agent.config import AgentRunSettings
+from agentic_mpc.agent.memory_rules import apply_memory
 from agentic_mpc.agent.messages import Message, ToolCall
 from agentic_mpc.mcp.protocol import DIRECTION_ARGUMENT, SPEED_ARGUMENT, ToolName, lane_tool_name
 
@@ -80,6 +85,7 @@ __all__ = [
     "Interpretation",
     "Plan",
     "RulesBackend",
+    "RulesSettings",
     "Side",
     "SideMention",
     "SpeedPhrase",
@@ -96,6 +102,10 @@ __all__ = [
 class Plan:
     calls: list[tuple[str, dict[str, Any]]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    not_understood: list[str] = field(default_factory=list)
+    """The parts of the message that ask for something no rule reads (then there are no calls)."""
+    said_back: list[str] = field(default_factory=list)
+    """What of the request cannot be met and why (a speed above the limit): repeated when the calls are done."""
 
 
 class RulesBackend:
@@ -108,6 +118,7 @@ class RulesBackend:
     def __init__(self, yield_lane: Side = "left") -> None:
         self.yield_lane = yield_lane
         self._counter = 0
+        self._said_back: list[str] = []
 
     async def complete(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> BackendReply:
         return self.reply(history, tools)
@@ -126,16 +137,17 @@ class RulesBackend:
                 plan = self.plan(asked.content, initial, current, {t.name: t for t in tools},
                                  jurisdiction=knowledge.jurisdiction_of(history),
                                  road_type=knowledge.road_type_of(history), found=last.content)
-                return self._reply(plan, current)
+                return self._reply(apply_memory(plan, asked, [t.name for t in tools]), current)
         if last.role == "tool":
             return BackendReply(self._summarise_results(history, current))
         if last.role != "user":
             return BackendReply("Waiting for a message.")
         plan = self.plan(last.content, initial, current, {t.name: t for t in tools},
                          jurisdiction=knowledge.jurisdiction_of(history), road_type=knowledge.road_type_of(history))
-        return self._reply(plan, current)
+        return self._reply(apply_memory(plan, last, [t.name for t in tools]), current)  # earlier runs' passenger
 
     def _reply(self, plan: Plan, current: DrivingState) -> BackendReply:
+        self._said_back = plan.said_back if plan.calls else []  # for the passenger, once the calls are done
         calls = tuple(self._call(name, args) for name, args in plan.calls)
         if calls:
             described = ", ".join(
@@ -159,6 +171,11 @@ class RulesBackend:
         and so does a speed where the road names its ``road_type`` (the limit for it caps the speed)."""
         meaning = interpret(text)
         plan = Plan()
+        missed = understanding.not_understood(text, tools, answered_as_such=meaning.question or meaning.conditional)
+        if missed:  # a call from half a message is worse than none: say what was not understood
+            plan.not_understood = missed
+            plan.notes.append(understanding.describe(missed, english=not understanding.not_english(text)))
+            return plan
         looked_up = None
         if meaning.emergency == "yield" and jurisdiction and knowledge.SEARCH_TOOL in tools:
             if found is None:
@@ -200,6 +217,7 @@ class RulesBackend:
         explicit_speed, _ = speeds.clamped(explicit, v_max)
         if speed_note:
             plan.notes.append(speed_note)
+            plan.said_back.append(speed_note)
 
         lane_call: tuple[str, float | None] | None = None
         if meaning.emergency == "yield" or meaning.pull_over:
@@ -292,4 +310,16 @@ class RulesBackend:
         if errors:
             detail = "; ".join(f"{m.name}: {m.content}" for m in errors)
             return f"The controller refused: {detail}. Now {current.describe()}."
-        return f"Done. Now {current.describe()}."
+        said_back = "".join(f" {note}" for note in self._said_back)
+        return f"Done.{said_back} Now {current.describe()}."
+
+
+class RulesSettings(AgentRunSettings):
+    """The offline rule-based stand-in (deterministic, English; not a language model)."""
+
+    backend: Literal["rules"] = "rules"
+    yield_lane: Side | None = Field(None, description="where to pull over for emergency vehicles (default: the "
+                                                      "road edge: left in left-hand traffic)")
+
+    def build_backend(self, lefthand: bool) -> RulesBackend:
+        return RulesBackend(yield_lane=self.yield_lane or ("left" if lefthand else "right"))

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from agentic_mpc.agent.backends.base import Backend, BackendReply, ModelUsage, ToolSpec
 from agentic_mpc.agent.backends.rules import RulesBackend
 from agentic_mpc.agent.backends.rules_state import driving_states
+from agentic_mpc.agent.memory_rules import apply_memory
 from agentic_mpc.agent.messages import Message
 
 NOT_UNDERSTOOD = "(I am a rule-based stand-in"
@@ -40,8 +41,9 @@ class RulesFirst:
         last = history[-1] if history else None
         if last is not None and last.role == "user":
             initial, current = driving_states(history)
-            plan = self.rules.plan(last.content, initial, current, {t.name: t for t in tools})
-            self._model_step = not understood(plan.calls, plan.notes)
+            plan = apply_memory(self.rules.plan(last.content, initial, current, {t.name: t for t in tools}), last,
+                                [t.name for t in tools])  # "no, the other side" is understood with memory
+            self._model_step = bool(plan.not_understood) or not understood(plan.calls, plan.notes)
             self.routed_to_model += self._model_step
         if self._model_step:
             return await self.model.complete(history, tools)

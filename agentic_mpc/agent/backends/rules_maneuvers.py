@@ -19,15 +19,28 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from agentic_mpc.agent.backends.rules_parsing import normalise
 from agentic_mpc.mcp.protocol import ToolName
 
 _LENGTH = r"(\d+(?:\.\d+)?)\s*(?:m\b|meters?\b|metres?\b|feet\b|ft\b)"
 _GAP_WORDS = re.compile(r"\b(?:gap|following distance|headway|distance (?:to|from|behind) the (?:car|vehicle)\b)")
-_ABSOLUTE = re.compile(r"\b(?:to|of|at)\s+(?:be\s+)?(?:about\s+)?" + _LENGTH)
+_ABSOLUTE = re.compile(r"\b(?:to|of|at|is)\s+(?:be\s+)?(?:an?\s+)?(?:about\s+)?" + _LENGTH)
+_LEADER = re.compile(r"\b(?:car|vehicle|truck)s?\s+(?:in front|ahead)\b|\b(?:lead|leading|front)\s+(?:car|vehicle)\b|"
+                     r"\bbehind (?:the|that) (?:car|vehicle|truck)\b")
+"""The car the ego follows, named: with a length, the message is about the following distance."""
+_FOLLOW = re.compile(r"\bfollow(?:ing)?\b")
+_MORE_LENGTH = re.compile(r"\b(\d+(?:\.\d+)?)\s+(?:more|extra)\s+(?:m\b|meters?\b|metres?\b|feet\b|ft\b)")
+_ADD_LENGTH = re.compile(r"\badd(?:\s+another)?\s+" + _LENGTH)
+_BACK_VERB = re.compile(r"\b(?:fall|drop|hang|pull|ease) back\b|\bback off\b")
+_UP_VERB = re.compile(r"\b(?:move|close|creep|pull) up\b|\bget closer\b")
+_LENGTH_PLACED = re.compile(_LENGTH + r"\s+(?:behind|between|from the|to the|back)\b|"
+                            r"\b(?:keep|stay|leave|hold|maintain)\s+(?:about\s+)?" + _LENGTH)
+"""An absolute gap said by where it is: "stay 15 m behind", "leave 70 m between us", "keep 20 m to the car"."""
 _LENGTH_FIRST = re.compile(_LENGTH + r"\s+(?:gap|following distance|headway|distance)\b")  # "keep a 30 m gap"
 _BY = re.compile(r"\bby\s+(?:about\s+)?" + _LENGTH)
 _RELATIVE_WORD = re.compile(_LENGTH + r"\s+(closer|shorter|less|nearer|more|higher|longer|further|farther|larger|bigger)\b")
-_SHORTER = re.compile(r"\b(?:decrease|lessen|shorten|reduce|lower|cut|tighten|close up|closer|less|smaller|nearer)\b")
+_SHORTER = re.compile(r"\b(?:decrease|lessen|shorten|shrink|narrow|reduce|lower|cut|tighten|close(?: up)?|closer|less|"
+                      r"smaller|nearer)\b")
 _LONGER = re.compile(r"\b(?:increase|expand|extend|lengthen|widen|open(?: up)?|grow|more|higher|larger|bigger|further|"
                      r"farther|longer)\b")
 _FEET_TO_M = 0.3048
@@ -46,14 +59,16 @@ _SHOULDER = re.compile(r"\b(?:emergency lane|hard shoulder|shoulder|breakdown la
 
 
 def _metres(match: re.Match[str]) -> float:
-    value = float(match.group(1))
+    value = float(next(group for group in match.groups() if group is not None))
     return value * _FEET_TO_M if re.search(r"feet|ft", match.group(0)) else value
 
 
 def maneuver_call(text: str, tools: dict[str, Any]) -> tuple[tuple[str, dict[str, Any]] | None, str | None]:
     """(the tool call, a note) for a message that asks for one of these manoeuvres; (None, None) otherwise."""
-    s = " ".join(text.lower().replace("-", " ").split())
-    if _GAP_WORDS.search(s) and ToolName.SET_FOLLOWING_DISTANCE in tools:
+    s = " ".join(normalise(text).replace("-", " ").split())  # number words as digits, as the speeds read them
+    if ToolName.SET_FOLLOWING_DISTANCE in tools and (
+            _GAP_WORDS.search(s) or (_LEADER.search(s) or _FOLLOW.search(s)) and (re.search(_LENGTH, s)
+                                                                            or _MORE_LENGTH.search(s))):
         return _following_distance(s)
     if _SHOULDER.search(s) and ToolName.PULL_OVER in tools:
         return (str(ToolName.PULL_OVER), {}), "Pulling over onto the emergency lane and stopping."
@@ -85,6 +100,13 @@ def _following_distance(s: str) -> tuple[tuple[str, dict[str, Any]] | None, str 
         change = amount if longer else -amount
         verb = "Widening" if longer else "Closing"
         return (str(ToolName.CHANGE_FOLLOWING_DISTANCE), {"change": change}), f"{verb} the gap by {amount:g} m."
+    if absolute is None and (more := _MORE_LENGTH.search(s) or _ADD_LENGTH.search(s)
+                             or (_BACK_VERB.search(s) or _UP_VERB.search(s)) and re.search(_LENGTH, s)):
+        amount = _metres(more)  # "8 more metres", "add 10 m", "fall back 8 m", "move up 15 m"
+        change = -amount if _UP_VERB.search(s) and not _BACK_VERB.search(s) else amount
+        verb = "Closing" if change < 0 else "Widening"
+        return (str(ToolName.CHANGE_FOLLOWING_DISTANCE), {"change": change}), f"{verb} the gap by {amount:g} m."
+    absolute = absolute or _LENGTH_PLACED.search(s)
     if absolute is not None:
         gap = _metres(absolute)
         return (str(ToolName.SET_FOLLOWING_DISTANCE), {"gap": gap}), f"Keeping a {gap:g} m gap to the car ahead."

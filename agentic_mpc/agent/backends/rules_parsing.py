@@ -146,6 +146,15 @@ class SpeedPhrase:
     mode: Literal["set", "by", "cap", "floor"]
     negated: bool
     text: str
+    sign: int = 0
+    """With ``mode="by"``: +1 faster, -1 slower when the phrase itself says which ("4 m/s slower than now", "take
+    6 m/s off our speed", "add 3 m/s"); 0: from the message's slow down / speed up."""
+
+
+_FASTER_AFTER = re.compile(r"^\s*(?:faster|quicker|more)\b")
+_SLOWER_AFTER = re.compile(r"^\s*(?:slower|less)\b|^\s*off\b")
+_ADD_BEFORE = re.compile(r"\b(?:add|plus|another)\s*$")
+_TAKE_BEFORE = re.compile(r"\b(?:take|knock|shave|subtract|minus)\s*$")
 
 
 def speed_phrases(clause: str) -> list[SpeedPhrase]:
@@ -167,8 +176,15 @@ def speed_phrases(clause: str) -> list[SpeedPhrase]:
             # "not faster than X" caps, "not slower than X" floors; "slower than X" caps, "faster than X" floors.
             upper = comparison.group(1) in ("faster", "more", "quicker", "above", "over")
             mode = "cap" if upper == _is_negated(prefix[: comparison.start()]) else "floor"
+        suffix = clause[match.end():]
+        sign = 0
+        if mode == "set":  # a speed the phrase itself makes relative: "4 m/s slower", "add 3 m/s"
+            if _FASTER_AFTER.match(suffix) or _ADD_BEFORE.search(prefix):
+                mode, sign = "by", 1
+            elif _SLOWER_AFTER.match(suffix) or _TAKE_BEFORE.search(prefix):
+                mode, sign = "by", -1
         negated = mode == "set" and _is_negated(prefix)
-        found.append(SpeedPhrase(round(mps, 3), mode, negated, match.group(0)))
+        found.append(SpeedPhrase(round(mps, 3), mode, negated, match.group(0), sign))
     return found
 
 

@@ -24,7 +24,7 @@ def explicit_speed(meaning: Interpretation, current: DrivingState, initial: Driv
         if phrase.mode == "set":
             return phrase.value_mps
         if phrase.mode == "by":
-            slower = meaning.slow_down and not meaning.speed_up
+            slower = phrase.sign < 0 if phrase.sign else meaning.slow_down and not meaning.speed_up
             return v_now - phrase.value_mps if slower else v_now + phrase.value_mps
         if phrase.mode == "cap":
             return min(v_now, phrase.value_mps)

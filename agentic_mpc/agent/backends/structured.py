@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Literal
 
 from agentic_mpc.agent.backends.base import ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX
 from agentic_mpc.agent.messages import Message, ToolCall
-from agentic_mpc.agent.settings import ToolMode
 
+ToolMode = Literal["native", "json_schema"]
 TOOL_MODES: tuple[str, ...] = ("native", "json_schema")
 REPLY_MAX_CHARS = 300
 REPLY_AFTER_RESULTS_CHARS = 80
@@ -41,12 +41,17 @@ STRUCTURED_INSTRUCTION = (
 )
 
 
-_AFTER_RESULTS = '\n(Answer {"reply": ...} if nothing else must change.)'
+ANSWER_FORMAT_MARK = "Answer with one JSON object"
+"""A system message that says the answer format itself (the compact prompt) gets no second paragraph."""
+
+_AFTER_RESULTS = '\n(If the message asked for another change, call that tool now; else answer {"reply": ...}.)'
 
 
-def answer_schema(tools: Sequence[ToolSpec], reply_chars: int = REPLY_MAX_CHARS) -> dict[str, Any]:
+def answer_schema(tools: Sequence[ToolSpec], reply_chars: int = REPLY_MAX_CHARS,
+                  cites: Sequence[str] = ()) -> dict[str, Any]:
     """The JSON schema of one answer: one of the tools with its arguments, or a reply of at most
-    ``reply_chars`` without a call."""
+    ``reply_chars`` without a call; with ``cites`` (the documents retrieved for the message) the reply names
+    one of them, ``{"reply": ..., "cite": "<id>"}``."""
     options: list[dict[str, Any]] = []
     for tool in tools:
         parameters = tool.to_openai()["function"]["parameters"]
@@ -58,19 +63,23 @@ def answer_schema(tools: Sequence[ToolSpec], reply_chars: int = REPLY_MAX_CHARS)
             "required": ["name", "arguments"],
             "additionalProperties": False,
         })
+    reply: dict[str, Any] = {"reply": {"type": "string", "maxLength": reply_chars}}
+    if cites:
+        reply["cite"] = {"type": "string", "enum": list(cites)}
     options.append({
         "type": "object",
-        "properties": {"reply": {"type": "string", "maxLength": reply_chars}},
-        "required": ["reply"],
+        "properties": reply,
+        "required": list(reply),
         "additionalProperties": False,
     })
     return {"oneOf": options}
 
 
-def response_format(tools: Sequence[ToolSpec], after_results: bool = False) -> dict[str, Any]:
+def response_format(tools: Sequence[ToolSpec], after_results: bool = False,
+                    cites: Sequence[str] = ()) -> dict[str, Any]:
     """The chat-completions ``response_format`` of the structured mode (``after_results``: the answer to tool
-    results, whose reply is kept short)."""
-    schema = answer_schema(tools, REPLY_AFTER_RESULTS_CHARS if after_results else REPLY_MAX_CHARS)
+    results, whose reply is kept short; ``cites``: documents the reply must name one of)."""
+    schema = answer_schema(tools, REPLY_AFTER_RESULTS_CHARS if after_results else REPLY_MAX_CHARS, cites)
     return {"type": "json_schema", "json_schema": {"name": "agent_answer", "schema": schema, "strict": True}}
 
 
@@ -106,6 +115,6 @@ def render_messages(history: Sequence[Message], tool_mode: ToolMode) -> list[dic
                 out[-1]["content"] += _AFTER_RESULTS
         else:
             out.append(message.to_openai())
-    if structured and out and out[0]["role"] == "system":
+    if structured and out and out[0]["role"] == "system" and ANSWER_FORMAT_MARK not in out[0]["content"]:
         out[0] = {**out[0], "content": f"{out[0]['content']}\n\n{STRUCTURED_INSTRUCTION}"}
     return out

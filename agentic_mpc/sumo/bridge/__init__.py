@@ -23,6 +23,7 @@ our conventions); here the simulation's start, step and end.
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Sequence
 from pathlib import Path
@@ -37,7 +38,6 @@ from agentic_mpc.sumo.bridge.vehicles import VehicleCommands
 from agentic_mpc.sumo.options import declares_lefthand, sumo_command
 from agentic_mpc.sumo.options import error_message as _message
 from agentic_mpc.sumo.records import (
-    CollisionRecord,
     SumoError,
     VehicleInfo,
     VehicleState,
@@ -45,9 +45,9 @@ from agentic_mpc.sumo.records import (
     check_net_file,
     front_to_centre,
 )
+from agentic_mpc.world.observation import CollisionObservation
 
 __all__ = [
-    "CollisionRecord",
     "SumoAlreadyRunningError",
     "SumoBridge",
     "SumoError",
@@ -103,10 +103,7 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading):
         self._context_ego: str | None = None
         self._emergency: set[str] = set()
         self._stopped: set[str] = set()  # obstacles held by a stop
-        self._edging_out: dict[str, float] = {}  # drivers edging out behind an obstacle -> their own minGap
-        self._edge_out_waits: dict[str, int] = {}  # drivers standing at their minGap behind one -> calls in a row
         self._straightening: dict[str, tuple[int, float]] = {}  # wedged drivers moved -> (own lc mode, until s)
-        self._standing_gaps: dict[str, float] = {}  # external vehicles standing with a small minGap -> their own
         self._external: dict[str, float] = {}  # id -> length, for the centre/front conversion
         self._pending_speeds: dict[str, tuple[float, float]] = {}
         self._waiting_external: dict[str, tuple[int, float]] = {}
@@ -114,8 +111,8 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading):
         self._mirror_shift: dict[str, tuple[float, float]] = {}  # see move_external
         self._outlines: dict[str, tuple[float, float]] = {}  # shown outline id -> (length, width) (show_outline)
         self.keep_route = keep_route
-        self.collisions: tuple[CollisionRecord, ...] = ()
-        """Collisions SUMO reported in the last step."""
+        self.collisions: tuple[CollisionObservation, ...] = ()
+        """Collisions SUMO reported in the last step (the observation's fills in the ego's part)."""
         self.departed: tuple[str, ...] = ()
         self.arrived: tuple[str, ...] = ()
 
@@ -200,9 +197,9 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading):
             self._pending_speeds.clear()
             collisions = libsumo.simulation.getCollisions()
             self.collisions = tuple(
-                CollisionRecord(
+                CollisionObservation(
                     c.collider, c.victim, c.colliderType, c.victimType, c.colliderSpeed, c.victimSpeed,
-                    c.type, c.lane, c.pos,
+                    c.type, c.lane, c.pos, False, "sumo", math.nan,
                 )
                 for c in collisions
                 if c.collider not in self._outlines and c.victim not in self._outlines

@@ -6,7 +6,8 @@ import libsumo
 from libsumo import constants as tc
 
 from agentic_mpc.sumo.options import error_message as _message
-from agentic_mpc.sumo.records import CollisionRecord, SumoError, VehicleInfo
+from agentic_mpc.sumo.records import SumoError, VehicleInfo
+from agentic_mpc.world.observation import CollisionObservation
 
 _LIBSUMO_ERRORS = (libsumo.TraCIException, libsumo.FatalTraCIError)
 
@@ -28,17 +29,14 @@ class BridgeState:
     _context_ego: str | None
     _emergency: set[str]
     _stopped: set[str]  # obstacles held by a stop
-    _edging_out: dict[str, float]  # drivers edging out behind an obstacle -> their own minGap
-    _edge_out_waits: dict[str, int]  # drivers standing at their minGap behind one -> calls in a row
     _straightening: dict[str, tuple[int, float]]  # wedged drivers moved back -> (own lane-change mode, until s)
-    _standing_gaps: dict[str, float]  # external vehicles standing with a small minGap -> their own minGap
     _external: dict[str, float]  # id -> length, for the centre/front conversion
     _pending_speeds: dict[str, tuple[float, float]]
     _waiting_external: dict[str, tuple[int, float]]
     _speed_overrides: dict[str, float]
     _mirror_shift: dict[str, tuple[float, float]]  # see move_external
     _outlines: dict[str, tuple[float, float]]  # shown outline id -> its (length, width) in SUMO (show_outline)
-    collisions: tuple[CollisionRecord, ...]
+    collisions: tuple[CollisionObservation, ...]
     departed: tuple[str, ...]
     arrived: tuple[str, ...]
 

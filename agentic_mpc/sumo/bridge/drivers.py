@@ -1,5 +1,5 @@
-"""Telling SUMO's drivers things: vType parameters, gaps to open for the ego, release from a rescue lane, room
-to edge out from behind a stopped obstacle, a move back into their lane when wedged astride a line."""
+"""Telling SUMO's drivers things: vType parameters, gaps to open for the ego, release from a rescue lane, a move
+back into their lane when wedged astride a line."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import libsumo
 
 from agentic_mpc.sumo.bridge.base import _LIBSUMO_ERRORS, BridgeState
 from agentic_mpc.sumo.options import error_message as _message
-from agentic_mpc.sumo.queues import QUEUE_STANDING_MPS
 from agentic_mpc.sumo.records import SumoError
+from agentic_mpc.tactics.queues import QUEUE_STANDING_MPS
 
 _SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (every kind of change, respecting others)
 _GAP_CHANGE_RATE = 1.0  # openGap: how fast the follower's headway moves to the requested one (per s)
@@ -90,45 +90,6 @@ class DriverCommands(BridgeState):
         leader = libsumo.vehicle.getLeader(vehicle_id, within_m)
         return bool(leader) and leader[0] in self._stopped and leader[1] <= within_m
 
-    def edge_out_behind_obstacles(self, min_gap_m: float, after_calls: int = 1,
-                                  at_gap_m: float = 0.5) -> tuple[str, ...]:
-        """Drivers found standing at their minGap (within ``at_gap_m`` of it) behind a stopped obstacle in
-        ``after_calls`` calls in a row get ``min_gap_m`` as their minGap, and their own back once the obstacle is
-        no longer their leader. SUMO's sublane model counts a car that stands at its minGap behind a stopped one
-        as overlapping it and blocked, and its neighbours stand to let it in for good (``incident_in_traffic``
-        seed 913: the whole road stood for 70 s; with 0.5 m it was out within 8 s). External and stopped vehicles
-        are left alone. Returns the ids given the room now."""
-        self._require_running()
-        edged = []
-        try:
-            present = set(libsumo.vehicle.getIDList())
-            for vehicle_id, own_gap_m in list(self._edging_out.items()):
-                if vehicle_id not in present:
-                    del self._edging_out[vehicle_id]
-                elif not self._stands_behind_obstacle(vehicle_id, None):
-                    libsumo.vehicle.setMinGap(vehicle_id, own_gap_m)
-                    del self._edging_out[vehicle_id]
-            waiting = {}
-            ours = self._external.keys() | self._outlines.keys() | self._stopped
-            for vehicle_id in present - ours - self._edging_out.keys():
-                if libsumo.vehicle.getSpeed(vehicle_id) < QUEUE_STANDING_MPS \
-                        and self._stands_behind_obstacle(vehicle_id, at_gap_m):
-                    waiting[vehicle_id] = self._edge_out_waits.get(vehicle_id, 0) + 1
-                    if waiting[vehicle_id] >= after_calls:
-                        self._edging_out[vehicle_id] = libsumo.vehicle.getMinGap(vehicle_id)
-                        libsumo.vehicle.setMinGap(vehicle_id, min_gap_m)
-                        edged.append(vehicle_id)
-            self._edge_out_waits = waiting
-        except _LIBSUMO_ERRORS as error:
-            raise self._fail("giving drivers room to edge out behind an obstacle", error) from error
-        return tuple(edged)
-
-    def _stands_behind_obstacle(self, vehicle_id: str, within_m: float | None) -> bool:
-        """Whether a stopped obstacle is ``vehicle_id``'s leader (within ``within_m`` beyond its minGap; any
-        distance up to 10 m if None)."""
-        leader = libsumo.vehicle.getLeader(vehicle_id, 10.0)
-        return bool(leader) and leader[0] in self._stopped and (within_m is None or leader[1] <= within_m)
-
     def straighten_wedged(self, after_s: float, within_m: float = 0.5, for_s: float = 5.0) -> tuple[str, ...]:
         """Drivers wedged astride a lane line by a stopped obstacle are moved back to their lane's centre.
 
@@ -174,29 +135,3 @@ class DriverCommands(BridgeState):
         the right and to the left: getNeighbors modes 3 and 2)."""
         return any(gap_m <= within_m and other in self._stopped
                    for mode in (2, 3) for other, gap_m in libsumo.vehicle.getNeighbors(vehicle_id, mode))
-
-    def standing_min_gap(self, vehicle_ids: Iterable[str], min_gap_m: float) -> None:
-        """While the first of ``vehicle_ids`` (the ego; then its outline) is slower than QUEUE_STANDING_MPS in SUMO,
-        they have ``min_gap_m`` as their minGap; their own once it moves. SUMO's sublane model counts a follower closer
-        than its minGap as overlapping and blocks every sideways move of the car ahead through the sublanes the
-        follower covers: the ego standing 1 m behind a car queued behind a stopped one kept it, and the road behind,
-        standing for good (``incident_in_traffic`` ambulance_right 4415). Off by default: docs/traffic.md."""
-        self._require_running()
-        try:
-            present = set(libsumo.vehicle.getIDList())
-            ids = [vehicle_id for vehicle_id in vehicle_ids if vehicle_id in present]
-            standing = bool(ids) and libsumo.vehicle.getSpeed(ids[0]) < QUEUE_STANDING_MPS
-            for vehicle_id in set(self._standing_gaps) - set(ids):
-                del self._standing_gaps[vehicle_id]
-            for vehicle_id in ids:
-                current_m = libsumo.vehicle.getMinGap(vehicle_id)  # SUMO's bluelight device may give the type back
-                if standing:
-                    self._standing_gaps.setdefault(vehicle_id, current_m)
-                    if current_m != min_gap_m:
-                        libsumo.vehicle.setMinGap(vehicle_id, min_gap_m)
-                elif vehicle_id in self._standing_gaps:
-                    own_m = self._standing_gaps.pop(vehicle_id)
-                    if current_m != own_m:
-                        libsumo.vehicle.setMinGap(vehicle_id, own_m)
-        except _LIBSUMO_ERRORS as error:
-            raise self._fail("setting the standing ego's minGap", error) from error

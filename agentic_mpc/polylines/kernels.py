@@ -5,7 +5,7 @@ where NumPy's per-call overhead dominates, and right after SUMO's step (and the 
 call runs with cold caches: measured in the co-simulation loop, about 6 us per NumPy call, 25-30 calls for
 the discs alone. One compiled call does the same work.
 
-Same results to the last bit as the NumPy they replace (:meth:`~agentic_mpc.sumo.network.Polyline.at` and the
+Same results to the last bit as the NumPy they replace (:meth:`~agentic_mpc.polylines.polyline.Polyline.at` and the
 sums of :mod:`~agentic_mpc.sumo.surroundings`): the same operations in the same order, each rounded (Numba
 without ``fastmath`` neither fuses a multiply and an add nor reorders), the clamp and the segment search as
 NumPy's (``tests/sumo/test_kernels.py`` compares them).
@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-from agentic_mpc.sumo.network import Polyline
+from agentic_mpc.polylines.polyline import Polyline
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
