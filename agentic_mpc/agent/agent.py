@@ -4,7 +4,7 @@ A new user message (typed, or generated from an observation) starts an agent ste
 history, the backend answers with text and tool calls, each call goes to the MCP server and its result is
 appended, and the backend is asked again, until it answers without tool calls; then the agent idles until
 the next message. One exception, the restore reminder (``AgentConfig.restore_reminder``, off by default:
-:meth:`Agent._remind`). The system message (tau = 0) holds the road (``sumo://road``), the initially
+:func:`agentic_mpc.agent.reminder.remind_to_restore`). The system message (tau = 0) holds the road (``sumo://road``), the initially
 attached primitives and the tools, so the agent can restore the original specification; a language model
 reads it as soon as the agent starts (``warm_up``), so that a message costs only its own tokens. Tool calls
 are run by :mod:`agentic_mpc.agent.tool_calls`; answers are asked for by :mod:`agentic_mpc.agent.backend_calls`.
@@ -61,8 +61,10 @@ from agentic_mpc.agent.connect import CLIENT_INFO, mcp_target, read_json_resourc
 from agentic_mpc.agent.hosting import ServerHost, target_of
 from agentic_mpc.agent.memory_recall import memory_json, open_session
 from agentic_mpc.agent.messages import Message, MessageHistory, Source
-from agentic_mpc.agent.prompt import restore_note, specification_changes, system_prompt
+from agentic_mpc.agent.prompt import system_prompt
+from agentic_mpc.agent.reminder import remind_to_restore
 from agentic_mpc.agent.report import StepReport, answer_closed
+from agentic_mpc.agent.report import attached_of as _attached
 from agentic_mpc.agent.retrieval import retrieved_message
 from agentic_mpc.agent.situation import EmergencyWatch, read_situation
 from agentic_mpc.agent.tool_calls import ToolRunner, call_key
@@ -312,14 +314,7 @@ class Agent:
         apply_at = None if frozen is None else frozen + self.config.latency_s
         budget = StepBudget(self.config.step_budget_s, self.config.step_budget_tokens)
         model = getattr(self.backend, "reads_situation", True) and self._client is not None
-        if self.config.situation and model:
-            incoming = replace(incoming, context=await read_situation(self._client))
-        if self.config.retrieval and model and self._host is not None:  # the passages that bear on it (retrieval.py)
-            incoming = await retrieved_message(incoming, self._host, self.tools,
-                                               (self.history.messages[0].data or {}).get("road"))
-        if self.memory is not None:  # what the passenger said in earlier runs: context lines and data
-            incoming = self.memory.before(incoming, self.transcript, self.history.tau + 1)
-        user = self._append(incoming)
+        user = self._append(await self._with_context(incoming, model))
         report = StepReport(user.content, user.source or "user", user.sim_time_s, first_tau=user.tau)
         now = partial(self._now, frozen)
         consecutive_errors = 0
@@ -342,7 +337,7 @@ class Agent:
             report.usage.add(reply.usage)
             calls = reply.tool_calls
             last_round = round_index + 1 >= self.config.max_rounds_per_step
-            if not (calls or made or reminded or last_round) and await self._remind(reply.text, frozen):
+            if not (calls or made or reminded or last_round) and await remind_to_restore(self, reply.text, frozen):
                 reminded = True
                 continue
             agent_message = self._append(Message("assistant", reply.text, tool_calls=calls, sim_time_s=now()))
@@ -384,35 +379,18 @@ class Agent:
         report.last_tau = self.history.tau
         if self.memory is not None:  # a stated preference or a correction is kept for the next runs
             self.memory.after(user, report.applied_calls, self.transcript, report.last_tau)
-        level = logging.INFO if report.ended == "idle" else logging.WARNING
-        logger.log(level, "agent step tau %d-%d ended (%s): %d tool call(s), %d error(s)", report.first_tau,
-                   report.last_tau, report.ended, len(report.tool_calls), len(report.errors))
-        self.transcript.record(
-            "step_end", tau=report.last_tau, sim_time_s=now(), ended=report.ended,
-            applied=report.applied_calls, errors=report.errors, wall_s=report.wall_s, **report.usage.describe(),
-        )
+        report.close(self.transcript, now())
         return report
 
-    async def _remind(self, withheld: str, frozen: float | None) -> bool:
-        """The restore reminder (``AgentConfig.restore_reminder``, language models only) for an answer without
-        a call: if the specification differs from the initial one, record the answer (``withheld``: it does
-        not enter the history, a small model repeats its last answer), append a note saying how it differs
-        (a user message, ``source="agent"``) and ask once more (True): restore it if the situation that
-        needed the change is over, else reply; else nothing (False). At most once per step, never after a
-        successful call in the step, never in its last round."""
-        if not (self.config.restore_reminder and getattr(self.backend, "reads_situation", True)
-                and self._client is not None and self._initial is not None):
-            return False
-        current = await read_json_resource(self._client, SPECIFICATION_URI, missing=logging.INFO)
-        changes = specification_changes(self._initial, current)
-        if not changes:
-            return False
-        self.transcript.record("restore_reminder", tau=self.history.tau, sim_time_s=self._now(frozen),
-                               changes=changes, withheld_answer=withheld)
-        self._append(Message("user", restore_note(changes), source="agent", sim_time_s=self._now(frozen)))
-        return True
+    async def _with_context(self, incoming: Message, model: bool) -> Message:
+        """The message with what a model reads beside it: the situation, the passages that bear on it
+        (retrieval.py) and what the passenger said in earlier runs (memory: context lines and data)."""
+        if self.config.situation and model:
+            incoming = replace(incoming, context=await read_situation(self._client))
+        if self.config.retrieval and model and self._host is not None:
+            road = (self.history.messages[0].data or {}).get("road")
+            incoming = await retrieved_message(incoming, self._host, self.tools, road)
+        if self.memory is not None:
+            incoming = self.memory.before(incoming, self.transcript, self.history.tau + 1)
+        return incoming
 
-
-def _attached(specification: Any) -> Any:
-    """The attached primitives of a specification (``mpc://specification`` or a tool result), if it says."""
-    return specification.get("attached") if isinstance(specification, dict) else None

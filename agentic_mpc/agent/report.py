@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from agentic_mpc.agent.backend_calls import StepUsage
 from agentic_mpc.agent.config import WatchRequest
 from agentic_mpc.agent.messages import Message, Source, ToolCall
+
+logger = logging.getLogger("agentic_mpc.agent.agent")  # the agent's step lines, where they always were
 
 
 @dataclass
@@ -50,6 +53,19 @@ class StepReport:
     def applied_calls(self) -> list[dict[str, Any]]:
         """The calls the server accepted, as {"tool", "arguments"}."""
         return [{"tool": c["tool"], "arguments": c["arguments"]} for c in self.tool_calls if c["ok"]]
+
+    def close(self, transcript: Any, sim_time_s: float | None) -> None:
+        """Say how the step ended: a log line (a warning unless it went idle) and the transcript's ``step_end``."""
+        level = logging.INFO if self.ended == "idle" else logging.WARNING
+        logger.log(level, "agent step tau %d-%d ended (%s): %d tool call(s), %d error(s)", self.first_tau,
+                   self.last_tau, self.ended, len(self.tool_calls), len(self.errors))
+        transcript.record("step_end", tau=self.last_tau, sim_time_s=sim_time_s, ended=self.ended,
+                          applied=self.applied_calls, errors=self.errors, wall_s=self.wall_s, **self.usage.describe())
+
+
+def attached_of(specification: Any) -> Any:
+    """The attached primitives of a specification (``mpc://specification`` or a tool result), if it says."""
+    return specification.get("attached") if isinstance(specification, dict) else None
 
 
 def answer_closed(queue: Any) -> None:

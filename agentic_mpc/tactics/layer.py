@@ -9,6 +9,7 @@ offers one gets the same rules. docs/traffic.md says what each rule does and why
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -153,7 +154,5 @@ class TacticsLayer:
 
 
 def _event(kind: str, tactic: ActiveTactic, time_s: float) -> dict[str, Any]:
-    import json
-
     return {"event": kind, "sim_time_s": round(time_s, 3), "tau": None, "source": "tactics", "content": tactic.rule,
             "result": json.dumps(tactic.to_json())}
