@@ -116,7 +116,16 @@ class LanePath:
     def parallel(self, offset_left_m: float, name: str = "") -> LanePath:
         """The path shifted sideways, positive to the left (a neighbouring lane)."""
         shifted = shapely.offset_curve(self._line, offset_left_m, join_style="mitre")
+        if not isinstance(shifted, LineString):  # a turn tighter than the offset: shapely's result falls apart
+            shifted = self._xy + offset_left_m * self._vertex_normals()
         return LanePath(shifted, name=name or f"{self.name}{offset_left_m:+.2f}m")
+
+    def _vertex_normals(self) -> NDArray[np.float64]:
+        """Unit left normals at the vertices (the mean direction of the two segments at each)."""
+        tangents = self._unit_tangents
+        at_vertices = np.vstack([tangents[:1], tangents[:-1] + tangents[1:], tangents[-1:]])
+        at_vertices /= np.maximum(np.hypot(at_vertices[:, 0], at_vertices[:, 1]), 1e-9)[:, None]
+        return np.column_stack([-at_vertices[:, 1], at_vertices[:, 0]])
 
     def __repr__(self) -> str:
         return f"LanePath(name={self.name!r}, vertices={len(self._xy)}, length_m={self.length_m:.1f})"

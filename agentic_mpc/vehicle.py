@@ -85,6 +85,15 @@ class VehicleParams:
 
 PAPER_PARAMS = VehicleParams()
 
+URBAN_PARAMS = VehicleParams(r_delta=0.6, l_r_m=1.54, l_f_m=1.54)
+"""The same car for streets with junctions: the paper's identification (highway driving, steering within 7.5
+degrees of road-wheel angle) turns no tighter than a 32 m radius (l_r / sin(gamma) at full lock), too wide for any
+junction. This one is a kinematic bicycle about the car's centre (the Nissan Patrol's 3.08 m wheelbase halved)
+with 34 degrees of road-wheel angle at full lock (4.8 m radius), and the paper's identified speed dynamics."""
+
+VEHICLE_MODELS = {"paper": PAPER_PARAMS, "urban": URBAN_PARAMS}
+"""The plant by the name a scenario gives it (``simulation: {vehicle_model: ...}``)."""
+
 
 def split_throttle_brake(ab: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """One throttle/brake series to (throttle, brake): a = Sat[0,1](ab), b = -Sat[-1,0](ab)."""

@@ -9,7 +9,11 @@ Cases (each in a fresh process: libsumo runs one simulation per process):
   case: 20 vehicles, no sublane model), 500 timed steps;
 - ``road_20_sublane``: the same with SUMO's sublane model (0.4 m) for comparison;
 - ``curvy_traffic``: the curved road with the route file's background traffic after 90 s of warm-up;
-- ``curvy_traffic_sublane``: the same with the sublane model (0.4 m, what rescue lanes switch on).
+- ``curvy_traffic_sublane``: the same with the sublane model (0.4 m, what rescue lanes switch on);
+- ``osm_route``: ``scenarios/junction_osm_route.yaml``: a route through SUMO's OpenStreetMap import (its 1,911
+  junctions and background traffic after 120 s of warm-up), the junction rules reading lights and foes each step.
+
+``step_over_sumo_step`` is the co-simulation step's median over SUMO's own step's median, in the same run.
 
 A step is timed as a whole (``RunLoop.step``'s ``step_ms``: surroundings, controller, bicycle model,
 moveToXY, SUMO step, observation); ``solve_ms`` is the controller's part. ``sumo_step_*`` is SUMO's own
@@ -39,7 +43,7 @@ import subprocess
 import sys
 import time
 
-CASES = ("road_20", "road_20_sublane", "curvy_traffic", "curvy_traffic_sublane")
+CASES = ("road_20", "road_20_sublane", "curvy_traffic", "curvy_traffic_sublane", "osm_route")
 
 
 def run_case(case: str, steps: int, seed: int) -> dict:
@@ -64,6 +68,12 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         steps = min(steps, 550 - warmup_steps)
     elif case.startswith("curvy_traffic"):
         config = curvy_traffic_config(sublane=case.endswith("sublane"))
+    elif case == "osm_route":
+        from pathlib import Path
+
+        from agentic_mpc.scenario.schema import load_scenario
+
+        config = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "junction_osm_route.yaml").variant("base").world
     else:
         raise ValueError(f"unknown case {case!r}; known: {CASES}")
     started = time.perf_counter()
@@ -102,6 +112,7 @@ def run_case(case: str, steps: int, seed: int) -> dict:
         "step_p99_ms": round(float(np.percentile(step_ms, 99)), 4),
         "sumo_step_median_ms": round(float(np.median(sumo_ms)), 4),
         "sumo_step_p90_ms": round(float(np.percentile(sumo_ms, 90)), 4),
+        "step_over_sumo_step": round(float(np.median(step_ms) / np.median(sumo_ms)), 2),
         "controller_median_ms": round(float(np.median(solve_ms)), 4),
         "rest_median_ms": round(float(np.median(step_ms - solve_ms)), 4),
         "rest_no_sumo_median_ms": round(float(np.median(step_ms - solve_ms - sumo_ms)), 4),

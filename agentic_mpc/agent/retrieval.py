@@ -47,6 +47,7 @@ _TOPICS = (
 )
 _WORD = re.compile(r"[A-Za-z0-9\u00C0-\u024F]+")
 _STOP = frozenset(["a", "an", "the", "is", "are", "we", "us", "our", "to", "of", "on", "in", "at", "for", "do", "does", "you", "i", "it", "this", "that", "what", "how", "which", "may", "can", "be", "with", "by", "and", "or", "as", "from", "please", "let", "s", "there", "its"])
+SPEED_WORDS = re.compile(r"speed|km/h|mph|m/s|fast|slow|limit|quick|hurry|\d", re.IGNORECASE)
 _EMERGENCY = re.compile(r"ambulance|fire (engine|truck)|police|siren|emergency|rettung|krankenwagen|救急",
                         re.IGNORECASE)
 
@@ -72,30 +73,47 @@ def named_place(message: str) -> str | None:
     return None
 
 
-def wants_knowledge(message: str) -> bool:
-    """Whether a message may need a rule or the car's manual."""
+def wants_knowledge(message: str, emergency: bool = True) -> bool:
+    """Whether a message may need a rule or the car's manual (``emergency``: an emergency vehicle it names
+    counts; not when the situation shows that none needs way, :func:`emergency_needs_way`)."""
     lowered = message.lower()
-    if named_place(message) or _EMERGENCY.search(message) or "?" in message:
+    if named_place(message) or (emergency and _EMERGENCY.search(message)) or _asks(message):
         return True
     return any(topic in lowered for topic in _TOPICS) and bool(re.search(r"\d|limit|rule|law|allowed", lowered))
 
 
+def _asks(message: str) -> bool:
+    """A question, not a request put as one ("let's pass on the right, shall we?" brought a passage on
+    overtaking that a small model then cited): the rules' reading (backends/rules_parsing.py)."""
+    if "?" not in message:
+        return False
+    from agentic_mpc.agent.backends.rules_parsing import interpret
+
+    return interpret(message).question
+
+
 def retrieval_query(message: str, road: dict[str, Any] | None, situation: str | None = None) -> str:
     """What to search for the message: its words, 'speed limit' and the road type when it asks about speed,
-    'emergency vehicle make way' when it mentions one."""
+    'emergency vehicle make way' when it mentions one (unless the situation shows that none needs way)."""
     words = [message]
     lowered = message.lower()
     road_type = str((road or {}).get("road_type") or "")
     if re.search(r"speed|km/h|mph|m/s|fast|slow|limit|\d", lowered):
         words.append(f"speed limit {road_type} {'expressway' if road_type == 'motorway' else ''}".strip())
-    if _EMERGENCY.search(message):
+    if _EMERGENCY.search(message) and emergency_needs_way(situation) is not False:
         words.append("emergency vehicle make way")
     return " ".join(words)
 
 
-def emergency_near(situation: str | None) -> bool:
-    """Whether the situation lists an emergency vehicle (situation.py's line for one)."""
-    return bool(situation and re.search(r"emergency vehicle \S+ '", situation))
+def emergency_needs_way(situation: str | None) -> bool | None:
+    """Whether an emergency vehicle of the situation needs way from us: one behind or beside us (True), none
+    or only ones ahead of us, past us (False), no situation read (None: the message is all there is). The
+    rule for making way bears on a message about an emergency vehicle only while one needs way: "the
+    ambulance is gone" with that rule beside it was answered "No need to change." by a small model."""
+    if not situation or "emergency vehicle" not in situation:
+        return None
+    lines = re.findall(r"^- emergency vehicle \S+ '.*$", situation, flags=re.M)
+    return any("ahead of us" not in line for line in lines)
 
 
 def _terms(text: str) -> set[str]:
@@ -157,9 +175,9 @@ async def retrieve(search: Search, tool_name: str, message: str, road: dict[str,
     way: searches of the knowledge server through
     ``search(tool_name, arguments)`` (the agent's host), limited to the place the message names or the road's."""
     queries = []
-    if wants_knowledge(message):
+    if wants_knowledge(message, emergency=emergency_needs_way(situation) is not False):
         queries.append(retrieval_query(message, road, situation))
-    if emergency_near(situation) and not queries:  # a message of its own topic gets its own passage only
+    if emergency_needs_way(situation) and not queries:  # a message of its own topic gets its own passage only
         queries.append("emergency vehicle approaching make way pull over")
     place = named_place(message) or (road or {}).get("jurisdiction")
     found: list[Retrieved] = []
@@ -199,8 +217,42 @@ async def retrieved_message(message: Message, host: Any, tools: Sequence[ToolSpe
         return "".join(getattr(part, "text", "") for part in getattr(result, "content", []) or [])
 
     found = await retrieve(search, name, message.content, road, message.context)
-    block = context_block(found)
+    block, data = context_block(found), dict(message.data or {})
+    limit = await law_limit(search, name, road)
+    if limit is not None:  # the tool layer keeps to it (toolset.converted); said where the message is on speed
+        mps, line, cite = limit
+        where = f"a {road.get('road_type')} in {road.get('jurisdiction')} [{cite}]" if road else f"[{cite}]"
+        data["law_limit"] = {"mps": mps, "why": where}
+        if SPEED_WORDS.search(message.content):
+            said = (f"The law's speed limit on this road: {mps:g} m/s ({mps * 3.6:.0f} km/h), {where}; a faster "
+                    "speed asked for is set to it.")
+            block = "\n\n".join(filter(None, [block, said]))
+            found = [*found, Retrieved(cite, "", line)] if cite not in [f.document for f in found] else found
     if block is None:
-        return message
+        return replace(message, data=data) if data != (message.data or {}) else message
     return replace(message, context="\n\n".join(filter(None, [message.context, block])),
-                   data={**(message.data or {}), "retrieved": [item.document for item in found]})
+                   data={**data, "retrieved": [item.document for item in found]})
+
+
+async def law_limit(search: Search, tool_name: str, road: dict[str, Any] | None) -> tuple[float, str, str] | None:
+    """(m/s, the line that states it, its document) the road's jurisdiction sets for its type of road where no
+    speed is signed (``sumo://road``'s ``jurisdiction`` and ``road_type``), read as the rules read it
+    (backends/rules_knowledge.py); None for a road without them or a search that finds no such line."""
+    from agentic_mpc.agent.backends.rules_knowledge import limit_search_call, speed_limit_rule
+
+    jurisdiction, road_type = (road or {}).get("jurisdiction"), (road or {}).get("road_type")
+    if not (isinstance(jurisdiction, str) and jurisdiction and isinstance(road_type, str) and road_type):
+        return None
+    _, arguments = limit_search_call(jurisdiction, road_type)
+    result = await search(tool_name, arguments)
+    found = None if result is None else speed_limit_rule(result, jurisdiction, road_type)
+    if found is None:
+        return None
+    mps, line, cite = found
+    try:  # the document's id to cite, not the citation's full text
+        passages = json.loads(result).get("passages") or []
+    except (ValueError, AttributeError):
+        passages = []
+    document = next((str(p["document"]) for p in passages if isinstance(p, dict) and p.get("document")
+                     and line[:40] in " ".join(str(p.get("text", "")).split())), cite)
+    return mps, line, document

@@ -71,7 +71,8 @@ def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | N
             kind = vehicle.get("type_id") or vehicle.get("vclass") or "emergency vehicle"
             lane = vehicle.get("lane_role") or "another"
             gap = f"{distance:.0f} m " if distance is not None else ""
-            where = {"ahead": "ahead of us", "behind": "behind us"}.get(vehicle.get("relation"), "beside us")
+            where = {"ahead": "ahead of us (past us: it needs no way from us)",
+                     "behind": "behind us"}.get(vehicle.get("relation"), "beside us")
             lines.append(f"- emergency vehicle {kind!s} '{vehicle.get('id')}' {gap}{where}, in the {lane} lane")
     if specification is not None and specification.get("summary"):
         lines.append(f"- attached: {specification['summary']}")
@@ -79,6 +80,8 @@ def describe_situation(ego: dict[str, Any] | None, emergency: dict[str, Any] | N
     if isinstance(active, dict):  # the specification's J1 shaped by a tactic: the agent should know why
         lines.append(f"- tactic {active.get('rule')}: path tracking follows lane {active.get('followed_lane')} "
                      f"instead of lane {active.get('tracked_lane')} to pass {active.get('obstacle_id')}")
+    if (tactics or {}).get("junction"):  # a light, a stop sign, a turn's speed: why the car slows
+        lines.append(f"- junction rules: {tactics['junction']}")
     if not lines:
         return None
     stamp = f" (t = {t:.1f} s)" if t is not None else ""

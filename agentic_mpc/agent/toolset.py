@@ -153,10 +153,13 @@ def short_description(tool: ToolSpec) -> str:
     return first.rstrip(".:;")
 
 
-def converted(call: ToolCall, tools: Iterable[ToolSpec]) -> tuple[ToolCall, str | None]:
+def converted(call: ToolCall, tools: Iterable[ToolSpec],
+              law_limit: tuple[float, str] | None = None) -> tuple[ToolCall, str | None]:
     """``call`` with its speeds in m/s (the ``unit`` it gave, m/s if none) and, given with a unit, set to the
     limit if above it; the note says so (None: nothing to say). Without a unit a speed above the limit is left
-    for the schema check to refuse, as before. Calls without a speed, or unreadable, are left as they are."""
+    for the schema check to refuse, as before. Calls without a speed, or unreadable, are left as they are.
+    ``law_limit``: (m/s, where it comes from) the law's limit for this road where it is below the road's (a
+    jurisdiction's motorway without signs: agent/retrieval.py looks it up), kept to in the same way."""
     listed = {t.name: t for t in tools}
     tool = listed.get(call.name)
     arguments = call.arguments
@@ -177,9 +180,11 @@ def converted(call: ToolCall, tools: Iterable[ToolSpec]) -> tuple[ToolCall, str 
         if isinstance(value, bool) or not isinstance(value, int | float):
             continue
         mps = round(float(value) * factor, 3)
-        bound = speed_bound(tool, name)
+        bound, whose = speed_bound(tool, name), "this road's limit"
+        if law_limit is not None and (bound is None or law_limit[0] < bound):
+            bound, whose = law_limit[0], f"the law's limit here ({law_limit[1]})"
         if stated and name == "v_ref" and bound is not None and mps > bound + 1e-9:
-            notes.append(f"{value:g} {unit} is {mps:g} m/s, above this road's limit of {bound:g} m/s "
+            notes.append(f"{value:g} {unit} is {mps:g} m/s, above {whose} of {bound:g} m/s "
                          f"({bound * 3.6:.0f} km/h): set to the limit.")
             mps = float(bound)
         arguments[name] = int(mps) if mps == int(mps) else mps

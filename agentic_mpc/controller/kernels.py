@@ -7,7 +7,7 @@ hot loop (measured 4-10x faster, see benchmarks/README.md):
 - the horizon loop is outside and the sample loop inside, over contiguous per-sample state vectors, so
   the compiler vectorises it;
 - tan(r_delta * delta) uses its Taylor series: |r_delta * delta| <= 0.1306 after steering saturation,
-  where seven terms are exact to 1e-16;
+  where seven terms are exact to 1e-16 (a model that steers further, up to 0.8 rad, uses sin/cos series);
 - the heading is carried as (cos phi, sin phi) and rotated by the small heading increment each step
   (series exact to 1e-15 for |dphi| <= 0.1 rad, i.e. speeds up to about 80 m/s), with a first-order
   renormalisation so it stays a unit vector at any speed;
@@ -24,15 +24,26 @@ import numpy as np
 
 from agentic_mpc.primitives.base import FusedArrays
 from agentic_mpc.primitives.mandatory import QUEUE_ROOM_KNEE_M as _ROOM_KNEE
-from agentic_mpc.vehicle import VehicleParams
+from agentic_mpc.vehicle import STEER_LIMIT, VehicleParams
 
 _JIT = {"fastmath": {"contract"}, "error_model": "numpy", "cache": True, "nogil": True}  # why: the docstring
 
 
+SMALL_STEER_RAD = 0.1306
+"""Up to this road-wheel angle (the paper's model at full lock) tan uses the short series; beyond, up to
+:data:`MAX_STEER_RAD` (a car that turns at junctions), the ratio of the sine and cosine series."""
+MAX_STEER_RAD = 0.8
+
+
 def pack_params(params: VehicleParams) -> np.ndarray:
-    """The model parameters in the order the kernel reads them."""
+    """The model parameters in the order the kernel reads them (the last: 1 if the short tan series is exact)."""
+    wheel_rad = abs(params.r_delta) * STEER_LIMIT
+    if wheel_rad > MAX_STEER_RAD:
+        raise ValueError(f"r_delta x the steering limit = {wheel_rad:.3f} rad: the fast path handles up to "
+                         f"{MAX_STEER_RAD} rad of road-wheel angle")
     return np.array(
-        [params.dt_s, params.r_delta, params.slip_gain, 1.0 / params.l_r_m, params.w_a, params.w_b, params.w_v]
+        [params.dt_s, params.r_delta, params.slip_gain, 1.0 / params.l_r_m, params.w_a, params.w_b, params.w_v,
+         1.0 if wheel_rad <= SMALL_STEER_RAD + 1e-12 else 0.0]
     )
 
 
@@ -51,6 +62,18 @@ def _tan_small(u: float) -> float:
             )
         )
     )
+
+
+@numba.njit(**_JIT)
+def _tan_moderate(u: float) -> float:
+    """tan(u) for |u| <= 0.8 as sin/cos from their series (the last terms below 1e-17 there): plain arithmetic,
+    so it rounds alike on every CPU, unlike libm's tan."""
+    u2 = u * u
+    sin_u = u * (1.0 - u2 / 6.0 * (1.0 - u2 / 20.0 * (1.0 - u2 / 42.0 * (1.0 - u2 / 72.0 * (1.0 - u2 / 110.0 * (
+        1.0 - u2 / 156.0 * (1.0 - u2 / 210.0 * (1.0 - u2 / 272.0))))))))
+    cos_u = 1.0 - u2 / 2.0 * (1.0 - u2 / 12.0 * (1.0 - u2 / 30.0 * (1.0 - u2 / 56.0 * (1.0 - u2 / 90.0 * (
+        1.0 - u2 / 132.0 * (1.0 - u2 / 182.0 * (1.0 - u2 / 240.0)))))))
+    return sin_u / cos_u
 
 
 @numba.njit(**_JIT)
@@ -135,6 +158,7 @@ def rollout_costs(
     dt, r_delta, kappa, inv_lr, w_a, w_b, w_v = (
         params[0], params[1], params[2], params[3], params[4], params[5], params[6]
     )
+    small_steer = params[7] > 0.5
     steer_w, ab_w, v_max, speed_w = limits[0], limits[1], limits[2], limits[3]
     rate_w, previous_delta, previous_ab = limits[4], limits[5], limits[6]
     smooth_d_w, smooth_ab_w, brake_w = limits[7], limits[8], limits[9]
@@ -181,7 +205,7 @@ def rollout_costs(
             throttle = min(max(abc, 0.0), 1.0)
             brake = -min(max(abc, -1.0), 0.0)
             # Dynamics: gamma from tan(gamma) = kappa * tan(r_delta * delta) without atan/tan/sin/cos.
-            g = kappa * _tan_small(r_delta * delta)
+            g = kappa * (_tan_small(r_delta * delta) if small_steer else _tan_moderate(r_delta * delta))
             cos_g = 1.0 / np.sqrt(1.0 + g * g)
             sin_g = g * cos_g
             ci = c[i]

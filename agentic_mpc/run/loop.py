@@ -43,7 +43,7 @@ from agentic_mpc.run.recorder import RunRecorder, StepOutcome
 from agentic_mpc.run.timeline import MessageSchedule, TimedMessage
 from agentic_mpc.tactics.config import TacticsConfig
 from agentic_mpc.tactics.layer import TacticsLayer
-from agentic_mpc.vehicle import throttle_for_steady_speed
+from agentic_mpc.vehicle import PAPER_PARAMS, throttle_for_steady_speed
 from agentic_mpc.world import ALERT_DISTANCE_M
 from agentic_mpc.world.base import World
 from agentic_mpc.world.emergency import EmergencyDetector
@@ -106,7 +106,7 @@ class RunLoop:
         self.settings = settings
         road = getattr(world, "tactical_road", None)  # a world that offers no road for the tactics drives without
         self.tactics = TacticsLayer(tactics, road) if road is not None else None
-        self.controller = FourierMPPI(controller, seed=seed)
+        self.controller = FourierMPPI(controller, params=getattr(world, "params", PAPER_PARAMS), seed=seed)
         mean = np.zeros((2, self.controller.config.coefficients))
         mean[1, 0] = throttle_for_steady_speed(float(world.ego_state[3]))  # start cruising, not coasting
         self.controller.reset(mean)
@@ -203,7 +203,7 @@ class RunLoop:
         stream: the run's is untouched), so that a paced run does not start a second behind the wall clock;
         and let the agent's model read its system message first (set-up, as loading the model is: a message
         in the first seconds would otherwise wait for it, tens of seconds on one CPU thread)."""
-        spare = FourierMPPI(self.controller.config, seed=0)
+        spare = FourierMPPI(self.controller.config, params=self.controller.params, seed=0)
         spare.reset(self.controller.mean)
         spare.step(self.world.ego_state, self.slot.current, self.world.surroundings(spare.config.horizon, None))
         if self.agent is not None and not self.agent.warmed.is_set():

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from agentic_mpc.primitives import Circle
+from agentic_mpc.run.junction_log import JunctionLog
 from agentic_mpc.run.stuck import StuckTracker, resume_to_v_ref_s
 from agentic_mpc.world.collisions import CollisionTracker
 from agentic_mpc.world.observation import Observation
@@ -57,13 +58,18 @@ class MetricsRecorder:
     """The contact episodes with their causes."""
     stuck: StuckTracker = field(default_factory=StuckTracker)
     """When the ego stood still although asked to move (:mod:`agentic_mpc.run.stuck`)."""
+    junctions: JunctionLog = field(default_factory=JunctionLog)
+    """How it went through the junctions of its route (:mod:`agentic_mpc.run.junction_log`)."""
     _previous_road_s_m: float | None = None
+    last_time_s: float = math.nan
 
     def observe(self, observation: Observation, lateral_of_lane: Any, v_ref_mps: float = math.nan) -> None:
         """``lateral_of_lane(index, x, y)``: the ego's signed offset from a road lane (+ left); ``v_ref_mps``:
         the speed the specification asks for."""
         ego = observation.ego
         self.stuck.update(observation, v_ref_mps)
+        if observation.junctions_ahead or self.junctions.junction_ids_ahead:
+            self.junctions.observe(observation)
         for vehicle in observation.traffic:
             if vehicle.relative_lane != 0:
                 continue
@@ -89,6 +95,7 @@ class MetricsRecorder:
                 track.side = "left" if lateral_of_lane(track.lane_index, ego.x_m, ego.y_m) > 0 else "right"
                 track.passed_at_s = observation.time_s
         self._previous_road_s_m = ego.road_s_m
+        self.last_time_s = observation.time_s
 
     def record_time_loss(self, vehicle_id: str, time_loss_s: float) -> None:
         self.emergency_time_loss_s[vehicle_id] = time_loss_s
@@ -113,6 +120,8 @@ def summarise(
         obstacle_side = obstacle_outcome(recorder.obstacles[0], recorder)  # the first one; all: obstacle_rows
         min_clearance = min(track.min_clearance_m for track in recorder.obstacles)
     reached = trajectory["road_s_m"] >= goal_s_m if len(trajectory) else pd.Series(dtype=bool)
+    # the trajectory's rows are the states the controller acted on: the step that reached the goal ended the run
+    reached_at_end = not reached.any() and (recorder._previous_road_s_m or -math.inf) >= goal_s_m
     solve_ms = trajectory["solve_ms"] if len(trajectory) else pd.Series(dtype=float)
     return {
         "steps": len(trajectory),
@@ -120,7 +129,8 @@ def summarise(
         "collisions": len(recorder.collisions.episodes),
         "collisions_ego_at_fault": recorder.collisions.at_fault,
         "sumo_reports_without_contact": len(recorder.collisions.reports_without_contact),
-        "reached_goal": bool(reached.any()),
+        "reached_goal": bool(reached.any()) or reached_at_end,
+        **recorder.junctions.summary(route_completed=bool(reached.any()) or reached_at_end),
         "obstacle_side": obstacle_side,
         "min_obstacle_clearance_m": finite_or_nan(min_clearance),
         "blockages_passed": sum(1 for track in recorder.obstacles if math.isfinite(track.passed_at_s)),
@@ -135,7 +145,8 @@ def summarise(
         if len(trajectory)
         else float("nan"),
         "mean_speed_mps": finite_or_nan(float(trajectory["v_mps"].mean())) if len(trajectory) else float("nan"),
-        "time_to_goal_s": round(float(trajectory["time_s"][reached].iloc[0]), 3) if reached.any() else float("nan"),
+        "time_to_goal_s": round(float(trajectory["time_s"][reached].iloc[0]), 3) if reached.any()
+        else round(recorder.last_time_s, 3) if reached_at_end else float("nan"),
         "ambulance_delay_s": finite_or_nan(max(recorder.emergency_time_loss_s.values()))
         if recorder.emergency_time_loss_s
         else float("nan"),

@@ -21,6 +21,7 @@ from typing import Any
 from agentic_mpc.primitives import PathTracking, Specification
 from agentic_mpc.run import files
 from agentic_mpc.run.comfort import add_motion_columns, comfort_summary
+from agentic_mpc.run.junction_log import JunctionLog
 from agentic_mpc.run.metrics import MetricsRecorder, ObstacleTrack, obstacle_rows, summarise
 from agentic_mpc.run.stuck import StuckTracker
 from agentic_mpc.world.base import World
@@ -63,7 +64,8 @@ class RunRecorder:
         self.tactic_events: list[dict[str, Any]] = []
         """``tactic_started`` / ``tactic_ended`` rows (the tactics layer's ``changes``)."""
         self.plan_rows: list[tuple[float, int, float, float]] = []
-        self.metrics = MetricsRecorder(stuck=StuckTracker(lane_count=len(world.lanes().lanes)))
+        self.metrics = MetricsRecorder(stuck=StuckTracker(lane_count=len(world.lanes().lanes)),
+                                       junctions=JunctionLog(getattr(world, "ego_length_m", 5.0)))
         circles = world.obstacle_circles()
         for obstacle in world.observation.obstacles:
             own = tuple(c for c in circles if c.label == obstacle.id)
@@ -163,7 +165,8 @@ class RunRecorder:
         collisions = [collision_event(e) for e in self.metrics.collisions.episodes] + self.metrics.stuck.events()
         collisions += [report_without_contact_event(r) for r in self.metrics.collisions.reports_without_contact]
         events = events_table(sorted(self.setup_events + transcript + list(self.received_calls)
-                                     + self.specification_events + self.tactic_events + collisions,
+                                     + self.specification_events + self.tactic_events + collisions
+                                     + self.metrics.junctions.events,
                                      key=lambda r: (r.get("sim_time_s") is None, r.get("sim_time_s") or 0.0)))
         events.to_csv(out_dir / files.EVENTS, index=False)
         summary: dict[str, Any] = {

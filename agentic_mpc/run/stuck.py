@@ -39,6 +39,8 @@ RESUMED_BAND_MPS = 0.5
 RESUME_DECIDED_S = 15.0
 """A resume the run ends less than this after, short of v_ref, is undecided (NaN), not a miss: from a standstill J1's
 ramp alone takes 5 s to 15 m/s (``traffic_ambulance_dense`` seed 2206 was asked to resume 3 s before its end)."""
+JUNCTION_LINE_M = 12.0
+"""Standing this close before a junction's line where it must stop or give way is waiting, not being stuck."""
 BLOCKAGE_SPAN_M = 15.0
 """Obstacles within this distance of each other along the road block the road together."""
 
@@ -119,7 +121,11 @@ class StuckTracker:
 
 
 def _why_still(observation: Observation, lane_count: int | None) -> str | None:
-    """Why a standing ego counts as stuck, or None when it is queueing behind traffic."""
+    """Why a standing ego counts as stuck, or None when it is queueing behind traffic or held at a junction's line
+    (a red or yellow light, giving way, a stop sign)."""
+    if any(0.0 <= j.distance_m <= JUNCTION_LINE_M and (j.signal in ("red", "yellow") or j.must_yield)
+           for j in observation.junctions_ahead[:1]):
+        return None
     ahead = [(v.gap_m, "vehicle", v.id) for v in observation.traffic
              if v.relation == "ahead" and v.gap_m < QUEUE_GAP_M and _in_path(v, observation.ego)]
     ahead += [(o.gap_m, "obstacle", o.id) for o in observation.obstacles

@@ -287,7 +287,9 @@ def _messages_past_the_end(document: YamlDocument, data: dict[str, Any], prefix:
 
 
 def _resolve_files(document: YamlDocument, data: dict[str, Any], prefix: YamlPath, problems: list[str]) -> dict[str, Any]:
-    """Paths in ``simulation`` are relative to the scenario file; missing files are reported here."""
+    """Paths in ``simulation`` are relative to the scenario file (``sumo:`` ones inside SUMO's installed package);
+    missing files are reported here."""
+    from agentic_mpc.sumo.config import SUMO_PREFIX, installed_sumo_file  # pydantic only
     simulation = data.get("simulation")
     if not isinstance(simulation, dict):
         return data
@@ -300,7 +302,7 @@ def _resolve_files(document: YamlDocument, data: dict[str, Any], prefix: YamlPat
     for path, value in keys:
         if not isinstance(value, str):
             continue
-        file = (base_dir / value).resolve()
+        file = installed_sumo_file(value) if value.startswith(SUMO_PREFIX) else (base_dir / value).resolve()
         if not file.is_file():
             where = (*prefix, *path) if prefix and (*prefix, *path) in document.lines else path
             problems.append(f"{document.locate(where)}: file not found: {file}")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, ClassVar, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import ConfigDict, Field, field_validator, model_validator
 
 from agentic_mpc import removed_options
 from agentic_mpc.frozen_config import FrozenConfig
@@ -154,6 +154,30 @@ class RescueLanes(FrozenConfig):
         return params
 
 
+SUMO_PREFIX = "sumo:"
+
+
+def installed_sumo_file(value: Any) -> Any:
+    """``sumo:tools/game/cross/cross.net.xml`` -> that file inside the installed ``eclipse-sumo`` package (read from
+    there, not copied: SUMO's licence and OpenStreetMap's); any other value unchanged."""
+    if not isinstance(value, str) or not value.startswith(SUMO_PREFIX):
+        return value
+    import sumo  # the eclipse-sumo wheel's package: its data files, no simulator
+
+    return Path(sumo.__file__).parent / value[len(SUMO_PREFIX):].lstrip("/")
+
+
+class RouteEnds(FrozenConfig):
+    """``road: {from: EDGE, via: [EDGE, ...], to: EDGE}``: SUMO's router finds the edges between (the fastest way
+    for a car), through the ``via`` edges in order."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", populate_by_name=True, allow_inf_nan=False)
+
+    from_edge: str = Field(..., alias="from", min_length=1, description="the edge the ego starts on")
+    via: tuple[str, ...] = Field((), description="edges the route passes, in order")
+    to_edge: str = Field(..., alias="to", min_length=1, description="the edge its route ends on")
+
+
 class SumoConfig(FrozenConfig):
     """The SUMO world of a run: network, traffic, the ego's start, obstacles; validated before SUMO starts.
 
@@ -161,9 +185,14 @@ class SumoConfig(FrozenConfig):
 
     net_file: Path
     route_files: tuple[Path, ...] = Field(..., min_length=1, description="must define the vTypes used")
-    road: str | tuple[str, ...] = Field(
-        ..., description="the ego's road: a start edge (followed while it has one successor) or the edge list"
+    road: str | tuple[str, ...] | RouteEnds = Field(
+        ..., description="the ego's road: a start edge (followed while it has one successor), a list of connected "
+        "edges, or {from: EDGE, to: EDGE} for the route SUMO's router finds; through junctions the ego follows one "
+        "lane of its route (the one that leads on)"
     )
+    vehicle_model: Literal["paper", "urban"] = Field(
+        "paper", description="the ego's plant: the paper's identified model (highway: it turns no tighter than a 32 m "
+        "radius) or 'urban' (the same car able to turn at junctions; agentic_mpc.vehicle.URBAN_PARAMS)")
     sublane: bool = Field(
         False, description="SUMO's sublane model (lateral behaviour, about 10x per step); rescue lanes switch it on"
     )
@@ -222,7 +251,13 @@ class SumoConfig(FrozenConfig):
     @field_validator("route_files", mode="before")
     @classmethod
     def _one_or_many(cls, value: Any) -> Any:
-        return (value,) if isinstance(value, (str, Path)) else value
+        value = (value,) if isinstance(value, (str, Path)) else value
+        return tuple(installed_sumo_file(v) for v in value) if isinstance(value, list | tuple) else value
+
+    @field_validator("net_file", mode="before")
+    @classmethod
+    def _sumo_file(cls, value: Any) -> Any:
+        return installed_sumo_file(value)
 
     @model_validator(mode="after")
     def _unique_ids(self) -> SumoConfig:

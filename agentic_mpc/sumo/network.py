@@ -20,6 +20,7 @@ import math
 import xml.sax
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapely
@@ -28,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.polylines.polyline import Polyline
+from agentic_mpc.sumo.route import ChainPiece, RouteError, connected_route, find_route, junction_of, lane_chain
 
 
 class NetworkError(ValueError):
@@ -50,41 +52,42 @@ class LaneSpan:
 class Road:
     """One carriageway through a chain of edges: lane paths, road edge lines, along-road coordinates."""
 
-    def __init__(self, network: RoadNetwork, edge_ids: tuple[str, ...]) -> None:
+    def __init__(self, network: RoadNetwork, edge_ids: tuple[str, ...],
+                 chains: list[list[ChainPiece]] | None = None) -> None:
         if not edge_ids:
             raise NetworkError(f"{network.path.name}: a road needs at least one edge")
-        net = network.net
-        edges = [network.edge(e) for e in edge_ids]
-        lane_count = len(edges[0].getLanes())
-        for edge in edges[1:]:
-            if len(edge.getLanes()) != lane_count:
-                raise NetworkError(
-                    f"{network.path.name}: road {list(edge_ids)} changes its lane count at edge {edge.getID()!r}"
-                    f" ({lane_count} -> {len(edge.getLanes())}); a Road needs one lane count throughout"
-                )
         self.network = network
         self.edge_ids = edge_ids
-        self.lane_count = lane_count
+        self.is_route = chains is not None
+        """One path along a route through junctions (:mod:`agentic_mpc.sumo.route`), not a carriageway's lanes."""
+        if chains is None:
+            chains = self._carriageway_chains(network, edge_ids)
+        lane_count = self.lane_count = len(chains)
         spans: dict[str, LaneSpan] = {}
         paths: list[LanePath] = []
         widths: list[float] = []
-        for index in range(lane_count):
-            chain = self._lane_chain(net, edges, index)
+        self.pieces: tuple[tuple[ChainPiece, float], ...] = ()
+        """(piece, where it starts on the path) of lane 0's chain: the route's lanes and junctions in order."""
+        for index, chain in enumerate(chains):
             coordinates: list[tuple[float, float]] = []
             s = 0.0
-            for lane in chain:
-                shape = [(float(p[0]), float(p[1])) for p in lane.getShape()]
+            starts = []
+            for piece in chain:
+                shape = piece.shape
                 shape_length = sum(math.dist(a, b) for a, b in zip(shape, shape[1:]))
                 if coordinates:
                     s += math.dist(coordinates[-1], shape[0])  # consecutive shapes normally touch
-                nominal = lane.getLength()
-                spans[lane.getID()] = LaneSpan(
-                    lane.getID(), index, s, shape_length, shape_length / nominal if nominal > 0 else 1.0
-                )
+                nominal = piece.nominal_length_m
+                for lane_id in piece.lane_ids:
+                    spans.setdefault(lane_id, LaneSpan(
+                        lane_id, index, s, shape_length, shape_length / nominal if nominal > 0 else 1.0))
+                starts.append((piece, s))
                 coordinates.extend(shape)  # LanePath drops the repeated joint vertex
                 s += shape_length
+            if index == 0:
+                self.pieces = tuple(starts)
             paths.append(LanePath(np.array(coordinates), name=f"{edge_ids[0]}..{edge_ids[-1]}#{index}"))
-            widths.append(chain[0].getWidth())
+            widths.append(network.net.getLane(chain[0].lane_ids[0]).getWidth())
         self.spans = spans
         self.lane_paths: tuple[LanePath, ...] = tuple(paths)
         self.lane_widths_m: tuple[float, ...] = tuple(widths)
@@ -101,7 +104,9 @@ class Road:
         self.left_edge = paths[leftmost].parallel(widths[leftmost] / 2, name="road left edge")
         self.right_edge = paths[rightmost].parallel(-widths[rightmost] / 2, name="road right edge")
         self.width_m = float(sum(widths))
-        self.reference = self.left_edge.parallel(-self.width_m / 2, name="road centre line")
+        # A route's one lane is its own centre line (an offset of an offset would cut a junction's tight turns).
+        self.reference = paths[0] if self.is_route else self.left_edge.parallel(-self.width_m / 2,
+                                                                                 name="road centre line")
         """The line along-road distances are measured on (the middle of the carriageway)."""
         # Arc length on each lane path -> arc length on the reference: lanes are parallel to it, so a table
         # at the lane's vertices interpolates exactly enough and costs one np.interp per query.
@@ -122,6 +127,22 @@ class Road:
             roles = {"center": order[0]}
         self._roles = roles
         self._role_of = {i: role for role, i in roles.items()}
+
+    @staticmethod
+    def _carriageway_chains(network: RoadNetwork, edge_ids: tuple[str, ...]) -> list[list[ChainPiece]]:
+        """One chain per lane index through edges of one lane count (:class:`NetworkError` if they are not)."""
+        edges = [network.edge(e) for e in edge_ids]
+        lane_count = len(edges[0].getLanes())
+        for edge in edges[1:]:
+            if len(edge.getLanes()) != lane_count:
+                raise NetworkError(
+                    f"{network.path.name}: road {list(edge_ids)} changes its lane count at edge {edge.getID()!r}"
+                    f" ({lane_count} -> {len(edge.getLanes())}); a Road needs one lane count throughout"
+                )
+        return [[ChainPiece((lane.getID(),), tuple((float(p[0]), float(p[1])) for p in lane.getShape()),
+                            lane.getLength(), lane.getEdge().getFunction() == "internal",
+                            junction_of(lane.getID()) if lane.getID().startswith(":") else None)
+                 for lane in Road._lane_chain(network.net, edges, index)] for index in range(lane_count)]
 
     @staticmethod
     def _lane_chain(net: sumolib.net.Net, edges: list, index: int) -> list:
@@ -179,6 +200,39 @@ class Road:
     def lane_path(self, lane: int | str) -> LanePath:
         """The centre line of a lane through the whole road, by index or role."""
         return self.lane_paths[self.lane_index(lane)]
+
+    @functools.cached_property
+    def speed_limit_mps(self) -> float:
+        """A carriageway's lowest limit; a route's highest (its slower stretches are :attr:`speed_zones`)."""
+        speeds = [self.network.edge(e).getSpeed() for e in self.edge_ids]
+        return float(max(speeds) if self.is_route else min(speeds))
+
+    @functools.cached_property
+    def speed_zones(self) -> tuple[tuple[float, float, float], ...]:
+        """(start, end along the path, limit) of lane 0's pieces slower than :attr:`speed_limit_mps` (a turn's
+        internal lanes, a slower street), neighbours with one limit joined."""
+        zones: list[tuple[float, float, float]] = []
+        for n, (piece, start) in enumerate(self.pieces):
+            end = self.pieces[n + 1][1] if n + 1 < len(self.pieces) else self.reference.length_m
+            limit = min(self.network.net.getLane(lane).getSpeed() for lane in piece.lane_ids)
+            if limit >= self.speed_limit_mps:
+                continue
+            if zones and zones[-1][2] == limit and abs(zones[-1][1] - start) < 1e-6:
+                zones[-1] = (zones[-1][0], end, limit)
+            else:
+                zones.append((start, end, float(limit)))
+        return tuple(zones)
+
+    def sumo_lane_id(self, edge_id: str, index: int) -> str:
+        """SUMO's id of road lane ``index`` on ``edge_id``: the same index on a carriageway; on a route the lane
+        the ego arrives in on that edge."""
+        if self.is_route:
+            piece = next((p for p, _ in self.pieces if not p.internal and p.lane_ids[0].rsplit("_", 1)[0] == edge_id),
+                         None)
+            if piece is None:
+                raise NetworkError(f"edge {edge_id!r} is not on the route {list(self.edge_ids)}")
+            return piece.lane_ids[0]
+        return f"{edge_id}_{index}"
 
     def lane_neighbour(self, index: int, side: str) -> int | None:
         """The lane to the ``side`` ("left"/"right") of lane ``index``, or None at the road edge."""
@@ -293,11 +347,34 @@ class RoadNetwork:
             chain.append(successors[0])
         return tuple(e.getID() for e in chain)
 
-    def road(self, edge_ids: tuple[str, ...] | list[str] | str) -> Road:
-        """The road through ``edge_ids``; a single edge id means that edge and its unique successors."""
-        ids = self.chain_from(edge_ids) if isinstance(edge_ids, str) else tuple(edge_ids)
+    def road(self, edge_ids: tuple[str, ...] | list[str] | str | Any) -> Road:
+        """The road through ``edge_ids``: a single edge id means that edge and its unique successors; a list the
+        edges in order (connected); a ``RouteEnds`` (the config's) the route SUMO's router finds. Parallel lanes that continue
+        make a carriageway of lanes; otherwise (turns, lane counts that change) one path along the route."""
+        where = f"{self.path.name}: road"
+        try:
+            if hasattr(edge_ids, "from_edge"):  # the config's RouteEnds
+                stops = (edge_ids.from_edge, *edge_ids.via, edge_ids.to_edge)
+                ids = stops[:1]
+                for here, there in zip(stops, stops[1:]):
+                    ids += find_route(self.net, here, there, where)[1:]
+                if len(set(ids)) != len(ids):
+                    repeated = sorted({e for e in ids if ids.count(e) > 1})
+                    raise RouteError(f"{where}: the route through {list(stops)} drives edges {repeated} twice")
+            elif isinstance(edge_ids, str):
+                ids = self.chain_from(edge_ids)
+            else:
+                ids = connected_route(self.net, tuple(edge_ids), where)
+        except RouteError as error:
+            raise NetworkError(str(error)) from None
         if ids not in self._roads:
-            self._roads[ids] = Road(self, ids)
+            try:
+                self._roads[ids] = Road(self, ids)
+            except NetworkError:
+                try:
+                    self._roads[ids] = Road(self, ids, [lane_chain(self.net, ids)])
+                except RouteError as error:
+                    raise NetworkError(f"{where} {list(ids)}: {error}") from None
         return self._roads[ids]
 
 

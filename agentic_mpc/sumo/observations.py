@@ -125,7 +125,8 @@ class ObservationBuilder:
         ego_lane = self._lanes[ego.lane_id][0] if on_road else None
         ego_s, lateral = self._ego_position(ego, ego_info.length_m)
         ego_obs = EgoObservation(
-            ego.id, ego.x_m, ego.y_m, ego.heading_rad, ego.speed_mps, ego.lane_id, ego.lane_index,
+            ego.id, ego.x_m, ego.y_m, ego.heading_rad, ego.speed_mps, ego.lane_id,
+            ego_lane if ego_lane is not None else ego.lane_index,  # the road's index (a route's: 0), else SUMO's
             self._role(ego.lane_id, ego.lane_index), self._edge(ego.lane_id), ego_s, lateral,
             ego_info.length_m, ego_info.width_m,
         )
@@ -154,6 +155,7 @@ class ObservationBuilder:
                     self._edge(lane_id), None
             else:
                 index, start, factor, role, edge, order = lane
+                lane_index = index  # the road's (on a route SUMO's index on the edge differs)
                 lane_s = start + lane_pos * factor - half
                 if centre_lateral:  # SUMO's is the front's; the centre sits off it by half the length x the angle
                     lateral_offset = locate(lane_tables[index], x, y, lane_s)[1]

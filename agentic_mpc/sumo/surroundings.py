@@ -40,6 +40,7 @@ import numpy as np
 from agentic_mpc.polylines.kernels import disc_centres, locate, points_at, side_lines
 from agentic_mpc.primitives import LaneLines, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
+from agentic_mpc.sumo.lane_tables import LaneTables
 from agentic_mpc.sumo.network import Road
 from agentic_mpc.tactics.covers import DiscCover, disc_cover
 from agentic_mpc.tactics.layer import NO_TACTICS, TacticalPlan, TacticalRoad
@@ -84,13 +85,15 @@ class SurroundingsBuilder:
         self._covers: dict[tuple[float, float, float], DiscCover] = {}
         self._enterable_lanes: frozenset[int] = frozenset(range(road.lane_count))
         self._plan: TacticalPlan = NO_TACTICS
+        # a route's other lanes (oncoming, crossing, internal): their vehicles are predicted along them
+        self._other_lanes = LaneTables(road.network.net) if road.is_route else None
 
     @property
     def tactical_road(self) -> TacticalRoad:
         """The road and sizes the tactics layer sees (its queues are then the ones these covers make)."""
         c = self.config
         return TacticalRoad(self._lane_centres, self.ego_length_m, self.ego_width_m, c.clearance_margin_m,
-                            c.max_discs_per_vehicle, c.range_ahead_m)
+                            c.max_discs_per_vehicle, c.range_ahead_m, self.road.speed_zones)
 
     def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
         """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""
@@ -178,6 +181,8 @@ class SurroundingsBuilder:
         discs: list[MovingDisc] = []
         if per_lane:
             self._lane_discs(discs, per_lane, ego_speed)
+        if off_road and self._other_lanes is not None:
+            off_road = self._discs_along_their_lanes(discs, off_road)
         for vehicle, cover, headway in off_road:
             direction = np.array([math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)])
             centres = np.array([vehicle.x_m, vehicle.y_m]) + (vehicle.speed_mps * self._steps)[:, None] * direction
@@ -210,6 +215,33 @@ class SurroundingsBuilder:
             centres, headings = disc_centres(self.road.lane_tables[index], self._steps, np.array(rows, dtype=np.float64))
             discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body)
                          for c, (radius, body), h in zip(centres, radii, headings, strict=True))
+
+    def _discs_along_their_lanes(self, discs: list[MovingDisc], items: list[tuple[VehicleObservation, DiscCover, float]]
+                                 ) -> list[tuple[VehicleObservation, DiscCover, float]]:
+        """On a route: the discs of vehicles on lanes that are not the road's, predicted along their own lanes
+        (:mod:`agentic_mpc.sumo.lane_tables`); returns those on no lane (predicted at constant heading)."""
+        per_lane: dict[str, list[tuple[float, float, float, float, float]]] = {}
+        radii: dict[str, list[tuple[float, float]]] = {}
+        rest = []
+        for vehicle, cover, headway in items:
+            found = self._other_lanes.table(vehicle.lane_id) if vehicle.lane_id else None
+            if found is None:
+                rest.append((vehicle, cover, headway))
+                continue
+            path = found[1]
+            lane_s = path.project(vehicle.x_m, vehicle.y_m)
+            lateral = locate(found[0], vehicle.x_m, vehicle.y_m, lane_s)[1]
+            body_radius = self._cover(vehicle, physical=True).radius_m
+            for offset in self._offsets(vehicle, cover, headway):
+                per_lane.setdefault(vehicle.lane_id, []).append(
+                    (vehicle.speed_mps, lane_s, lateral, offset, vehicle.heading_rad))
+                radii.setdefault(vehicle.lane_id, []).append((cover.radius_m, body_radius))
+        for lane_id, rows in per_lane.items():
+            table = self._other_lanes.table(lane_id)[0]
+            centres, headings = disc_centres(table, self._steps, np.array(rows, dtype=np.float64))
+            discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body)
+                         for c, (radius, body), h in zip(centres, radii[lane_id], headings, strict=True))
+        return rest
 
     def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:
         """The discs' offsets along the vehicle's heading; a leader's row extended backwards by ``headway``."""
@@ -324,12 +356,21 @@ class SurroundingsBuilder:
             left, right = self.edges(observation.ego.road_s_m, float(ego_state[3]), bounds)
         discs = self.discs(observation, target_lane)
         leaders = self.leaders(observation, target_lane)
+        if plan.stop_line_s_m is not None:  # the junction rules stop the ego there: J0 holds it like a car
+            leaders = (*leaders, self._stop_line(observation, plan.stop_line_s_m))
         # Queued nose to tail already (the tail is then a time-gap leader): the room behind it is lost, and
         # asking for it made the ego steer and creep into the car (ego_into_stopped at 0.2 m/s, seeds 0-2).
         blockages = tuple(queue.tail for queue in self._queue_room() if not queue.nose_to_tail)
         return Surroundings(moving_discs=discs, road_left_edge=left, road_right_edge=right, leaders=leaders,
                             blockages=blockages, reference_shift_m=shift, reference_speed_cap_mps=plan.speed_cap_mps,
                             lane_lines=self.lane_lines(observation.ego.road_s_m, float(ego_state[3])))
+
+    def _stop_line(self, observation: Observation, stop_s_m: float) -> Leader:
+        """A standing leader whose rear is the stop line (along the road's reference line)."""
+        ego_s = observation.ego.road_s_m
+        contact = np.full(self.horizon, stop_s_m - 0.5 * self.ego_length_m)
+        points, tangents = points_at(self.road.reference_table, np.concatenate([contact, 0.5 * (contact + ego_s)]))
+        return Leader(points[: self.horizon], np.ascontiguousarray(tangents[self.horizon:]))
 
     def _ego_lateral_m(self, observation: Observation) -> float:
         """The ego's centre's offset left of the road's reference line (the corridor)."""

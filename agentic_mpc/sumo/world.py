@@ -14,6 +14,7 @@ observation stays readable.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
@@ -29,6 +30,7 @@ from agentic_mpc.sumo.bridge import SumoBridge, SumoError, VehicleState
 from agentic_mpc.sumo.config import LaneRef, SumoConfig
 from agentic_mpc.sumo.insertion import insert_at_free_gap, speed_behind_leader
 from agentic_mpc.sumo.intention import IntentionReader
+from agentic_mpc.sumo.junctions import RouteJunctions
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
 from agentic_mpc.sumo.outline import EgoOutline
@@ -37,7 +39,7 @@ from agentic_mpc.sumo.start import open_bridge
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder
 from agentic_mpc.tactics.covers import obstacle_circles
 from agentic_mpc.tactics.layer import TacticalPlan, TacticalRoad
-from agentic_mpc.vehicle import PAPER_PARAMS, VehicleParams
+from agentic_mpc.vehicle import VEHICLE_MODELS, VehicleParams
 from agentic_mpc.world.base import WorldError, WorldReadings
 from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import Observation
@@ -57,11 +59,12 @@ class _Resolved:
 class SumoWorld(WorldReadings):
     """A :class:`~agentic_mpc.world.base.World` simulated by SUMO. ``seed`` is SUMO's seed (the run's)."""
 
-    def __init__(self, config: SumoConfig, seed: int = 0, params: VehicleParams = PAPER_PARAMS) -> None:
+    def __init__(self, config: SumoConfig, seed: int = 0, params: VehicleParams | None = None) -> None:
         self.config = config
         self.seed = seed
-        self.params = params
-        self.dt_s = params.dt_s
+        self.params = params if params is not None else VEHICLE_MODELS[config.vehicle_model]
+        """The ego's plant; the run loop gives the controller the same."""
+        self.dt_s = self.params.dt_s
         self._bridge: SumoBridge | None = None
         self._sumo_steps = 0
         self._asked: set[str] = set()  # followers asked to open a gap for the ego in the last cycle
@@ -98,6 +101,7 @@ class SumoWorld(WorldReadings):
             self._surroundings: dict[int, SurroundingsBuilder] = {}
             self._observer = ObservationBuilder(self.road, config.ego_id, self._bridge.info, self.obstacle_ids,
                                                 self._obstacle_state, config.centre_lateral_offsets)
+            self.junctions = RouteJunctions(self.road, self._bridge)
             self._observation = self._observe()
             self._intention = IntentionReader(self.road, self.ego_width_m, max_decel_mps2=config.announce_max_decel_mps2
                                               ) if config.announce_lane_changes else None
@@ -119,6 +123,8 @@ class SumoWorld(WorldReadings):
             index = self.road.lane_index(lane)
         except NetworkError as error:
             raise WorldError(f"{what}: {error}") from error
+        lane_id = self.road.sumo_lane_id(edge_id, index)
+        index = int(lane_id.rsplit("_", 1)[1])  # SUMO's index on that edge from here on
         length = self.network.edge(edge_id).getLane(index).getLength()
         if not 0.0 <= pos_m <= length:
             raise WorldError(
@@ -263,7 +269,7 @@ class SumoWorld(WorldReadings):
     def lanes(self) -> RoadLanes:
         """The road's lanes by role and its speed limit (the lowest on the road)."""
         lanes = {role: self.road.lane_paths[index] for role, index in self.road.lane_roles().items()}
-        limit = min(self.network.edge(edge_id).getSpeed() for edge_id in self.road.edge_ids)
+        limit = self.road.speed_limit_mps
         first = self.network.edge(self.road.edge_ids[0]).getLanes()  # a lane cars may not use: a hard shoulder
         shoulder = next((i for i, lane in enumerate(first) if not lane.allows("passenger")), None)
         return RoadLanes(lanes, float(limit), self.road.lefthand, tuple(self.road.lane_paths),
@@ -389,4 +395,8 @@ class SumoWorld(WorldReadings):
                 f"the ego {self.config.ego_id!r} is no longer in SUMO at t={bridge.time_s:.2f} s"
                 " (it left its route's end or the network)"
             )
-        return self._observer.build(bridge.time_s, ego, others, bridge.emergency_vehicles(), bridge.collisions)
+        observation = self._observer.build(bridge.time_s, ego, others, bridge.emergency_vehicles(), bridge.collisions)
+        if self.junctions.junctions:
+            front_s = observation.ego.road_s_m + 0.5 * self.ego_length_m
+            observation = dataclasses.replace(observation, junctions_ahead=self.junctions.ahead(front_s))
+        return observation

@@ -11,10 +11,12 @@ from pydantic import Field, field_validator
 from agentic_mpc.frozen_config import FrozenConfig
 
 RuleName = Literal["queue_room", "passing_lanes", "gap_acceptance", "pass_beside_queue", "pull_out_past_stopped_car",
-                   "merge_ahead_of_queue"]
+                   "merge_ahead_of_queue", "speed_zones", "traffic_lights", "right_of_way"]
 ALL_RULES: tuple[RuleName, ...] = ("queue_room", "passing_lanes", "gap_acceptance", "pass_beside_queue",
-                                   "pull_out_past_stopped_car", "merge_ahead_of_queue")
-"""Every rule, in the order the lane J1 follows is decided (the first detour rule that starts wins)."""
+                                   "pull_out_past_stopped_car", "merge_ahead_of_queue", "speed_zones", "traffic_lights",
+                                   "right_of_way")
+"""Every rule: the blockage rules in the order the lane J1 follows is decided (the first detour rule that starts
+wins), then the junction rules (:mod:`agentic_mpc.tactics.junctions`; they act only on routes with junctions)."""
 
 
 class PassingLanes(FrozenConfig):
@@ -69,6 +71,28 @@ class MergeAheadOfQueue(FrozenConfig):
     within_m: float = Field(80.0, gt=0, description="how far ahead the queue's last car may be")
 
 
+class SpeedZones(FrozenConfig):
+    """Lanes of the route slower than the road's limit (a turn, a slower street) cap J1's reference speed."""
+
+    decel_mps2: float = Field(1.5, gt=0, le=5.0, description="how hard the ego brakes for a slower zone ahead")
+
+
+class TrafficLights(FrozenConfig):
+    """Stop at the line for red, and for yellow when the stop is comfortable; go on green."""
+
+    yellow_stop_decel_mps2: float = Field(
+        3.0, gt=0, le=9.0, description="yellow: stop if this deceleration or less stops the ego at the line")
+    stop_decel_mps2: float = Field(2.0, gt=0, le=9.0, description="the rate the stop's speed cap comes down at")
+    stop_margin_m: float = Field(1.0, ge=0, description="the front stops this far before the line")
+
+
+class RightOfWay(FrozenConfig):
+    """Where the ego's movement gives way it goes only in a gap; at a stop sign it stops first."""
+
+    gap_s: float = Field(6.0, gt=0, le=30.0, description="a vehicle with priority arriving sooner holds the ego")
+    gap_held_s: float = Field(1.0, ge=0, le=10.0, description="near the line, how long the gap must stay open")
+
+
 class TacticsConfig(FrozenConfig):
     """The rules in force (by name; a rule left out is off) and their parameters."""
 
@@ -78,6 +102,9 @@ class TacticsConfig(FrozenConfig):
     pass_beside_queue: PassBesideQueue = PassBesideQueue()
     pull_out_past_stopped_car: PullOutPastStoppedCar = PullOutPastStoppedCar()
     merge_ahead_of_queue: MergeAheadOfQueue = MergeAheadOfQueue()
+    speed_zones: SpeedZones = SpeedZones()
+    traffic_lights: TrafficLights = TrafficLights()
+    right_of_way: RightOfWay = RightOfWay()
 
     @field_validator("rules", mode="before")
     @classmethod

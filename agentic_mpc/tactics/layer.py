@@ -16,6 +16,7 @@ from typing import Any
 from agentic_mpc.tactics.config import GapAcceptance, TacticsConfig
 from agentic_mpc.tactics.covers import disc_cover
 from agentic_mpc.tactics.detour import Detour, Passing
+from agentic_mpc.tactics.junctions import JunctionRules
 from agentic_mpc.tactics.queues import Queue, find_queues
 from agentic_mpc.world.observation import Observation
 
@@ -31,6 +32,8 @@ class TacticalRoad:
     clearance_margin_m: float = 0.5
     max_discs_per_vehicle: int = 8
     range_ahead_m: float = 80.0
+    speed_zones: tuple[tuple[float, float, float], ...] = ()
+    """(start, end along the road, speed limit) of the route's stretches slower than the road's limit."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,7 +71,11 @@ class TacticalPlan:
     """The lane J1 follows instead of the tracked one (None: the tracked one)."""
     active: ActiveTactic | None = None
     speed_cap_mps: float | None = None
-    """A cap on J1's reference speed (no shipped rule sets one)."""
+    """A cap on J1's reference speed (the junction rules: a slower zone ahead, a stop at a line)."""
+    stop_line_s_m: float | None = None
+    """Along-road position of the line the ego's front stops at (J0 holds it there like a standing car)."""
+    junction_reason: str | None = None
+    """Why the junction rules cap the speed or stop the ego (for the agent)."""
 
 
 NO_TACTICS = TacticalPlan()
@@ -86,6 +93,8 @@ class TacticsLayer:
 
     def __post_init__(self) -> None:
         self._detour = Detour(self.config)
+        self._junction_rules = JunctionRules(self.config, self.road.speed_zones)
+        self.junction_reason: str | None = None
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
 
@@ -112,11 +121,14 @@ class TacticsLayer:
         followed = self._detour.lane(observation, queues, tracked_lane, self.road.lane_centres_m, passing_side)
         self._note(self._detour.passing if followed is not None else None, observation.time_s)
         lane = followed if followed is not None else tracked_lane
+        junction = self._junction_rules.decide(observation, self.road.ego_length_m)
+        self.junction_reason = junction.reason
         return TacticalPlan(
             queues=queues, queue_room=config.uses("queue_room"),
             passing_lanes=self._passing_lanes(observation, queues, lane),
             gap_acceptance=config.gap_acceptance if config.uses("gap_acceptance") else None,
-            followed_lane=followed, active=self.active)
+            followed_lane=followed, active=self.active, speed_cap_mps=junction.speed_cap_mps,
+            stop_line_s_m=junction.stop_line_s_m, junction_reason=junction.reason)
 
     def _passing_lanes(self, observation: Observation, queues: tuple[Queue, ...], lane: int | None) -> frozenset[int]:
         """The lanes beside the ego's when a blockage stands ahead in the lane it drives or follows, its tail
@@ -146,11 +158,16 @@ class TacticsLayer:
 
     def to_json(self) -> dict[str, Any]:
         """The resource ``mpc://tactics``: the rules in force and the tactic changing J1's reference, if any."""
-        return {"rules": list(self.config.rules), "active": self.active.to_json() if self.active else None}
+        state = {"rules": list(self.config.rules), "active": self.active.to_json() if self.active else None}
+        return {**state, "junction": self.junction_reason} if self.junction_reason else state
 
     def situation(self) -> str | None:
-        """A line for the agent's situation while a tactic changes J1's reference."""
-        return self.active.describe() if self.active is not None else None
+        """A line for the agent's situation while a tactic changes J1's reference or a junction rule holds the
+        ego's speed."""
+        lines = [self.active.describe()] if self.active is not None else []
+        if self.junction_reason:
+            lines.append(f"junction rules: {self.junction_reason}")
+        return "; ".join(lines) or None
 
 
 def _event(kind: str, tactic: ActiveTactic, time_s: float) -> dict[str, Any]:

@@ -215,6 +215,32 @@ class CollisionObservation:
 
 @_fast_init
 @dataclass(frozen=True, slots=True)
+class JunctionAhead:
+    """A junction on the ego's route that it has not left yet, as the world sees it this step."""
+
+    junction_id: str
+    stop_s_m: float
+    """Along-road position of the stop line (where the ego's lane enters the junction)."""
+    exit_s_m: float
+    """Along-road position where the ego's way through the junction ends."""
+    distance_m: float
+    """From the ego's front bumper to the stop line (negative: the front is past it)."""
+    direction: Literal["straight", "left", "right", "turn"]
+    signal: Literal["green", "yellow", "red", "off"] | None
+    """The light for the ego's movement (None: no traffic light)."""
+    must_yield: bool
+    """The ego's movement gives way (a minor road, a stop sign, a left turn on green against oncoming traffic)."""
+    stop_sign: bool
+    """The ego must stop at the line before it goes (a stop sign, an all-way stop)."""
+    foe_arrival_s: float | None
+    """How soon the first vehicle on a movement with priority over the ego's reaches the junction (0: inside it;
+    None: none within sight, or the ego has priority)."""
+
+    def to_json(self) -> dict[str, Any]:
+        return _rounded(self)
+
+
+@dataclass(frozen=True, slots=True)
 class Observation:
     """One step's snapshot of the world, from the ego's point of view."""
 
@@ -225,6 +251,9 @@ class Observation:
     emergency_vehicles: tuple[EmergencyVehicleObservation, ...]
     obstacles: tuple[ObstacleObservation, ...]
     collisions: tuple[CollisionObservation, ...]
+    junctions_ahead: tuple[JunctionAhead, ...] = ()
+    """The next junctions on the ego's route, nearest first (worlds without junctions: none); see
+    ``sumo://route`` (not in :meth:`to_json`)."""
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict with exactly the keys of :data:`JSON_KEYS`."""

@@ -145,3 +145,32 @@ def test_a_dialogues_earlier_steps_reach_the_model_in_a_line_each_not_as_its_rep
     assert second[1]["content"].endswith("Passenger: It's gone.")
     # the history the agent keeps (and the transcript) is whole
     assert [m.role for m in agent.history.messages].count("assistant") == 4
+
+
+@pytest.mark.parametrize("message, question", [
+    ("What should we do if an ambulance comes?", True),
+    ("Which lane are we in?", True),
+    ("Could you drive a bit faster, say 20 m/s?", False),
+    ("Let's try to avoid obstacles from the right, shall we?", False),
+    ("An ambulance is coming behind us. We'd better let them pass.", False),
+])
+def test_a_question_is_answered_with_a_reply_the_schema_offers_no_call(server, message, question):
+    """json_schema: a question's answer cannot be a call to the car (Qwen 1.5B yielded to "what must we do for
+    an ambulance?" with one near); a request put as a question keeps its tools."""
+    with ScriptedLLM([text('{"reply": "OK."}')]) as llm, Agent(model(llm, tool_mode="json_schema"), server) as agent:
+        agent.deliver(message).result(30)
+    assert (schema_tools(llm.requests[0]) == []) is question
+
+
+def test_a_question_without_a_passage_may_search_once_then_it_is_answered(server):
+    from agentic_mpc.knowledge.server import build_knowledge_server
+    from agentic_mpc.knowledge.store import KnowledgeBase
+
+    script = [text('{"name": "knowledge__search_knowledge", "arguments": {"query": "real person"}}'),
+              text('{"reply": "No, a program."}')]
+    with ScriptedLLM(script) as llm, Agent(model(llm, tool_mode="json_schema"), server,
+                                          other_servers={"knowledge": build_knowledge_server(KnowledgeBase())}) as agent:
+        report = agent.deliver("Who sang zorblat?").result(30)
+    assert [schema_tools(r) for r in llm.requests] == [["knowledge__search_knowledge"], []]
+    assert [c["tool"] for c in report.applied_calls] == ["knowledge__search_knowledge"]  # no call to the car
+    assert report.text.startswith("No, a program.")

@@ -12,7 +12,7 @@ from mcp import Client
 from agentic_mpc.agent import Agent
 from agentic_mpc.agent.backends.openai import OpenAIBackend
 from agentic_mpc.agent.backends.rules import RulesBackend
-from agentic_mpc.agent.retrieval import named_place, retrieve, wants_knowledge
+from agentic_mpc.agent.retrieval import emergency_needs_way, law_limit, named_place, retrieve, wants_knowledge
 from agentic_mpc.agent.settings import OpenAISettings
 from agentic_mpc.knowledge.server import build_knowledge_server
 from agentic_mpc.knowledge.store import KnowledgeBase
@@ -41,10 +41,11 @@ def test_the_passage_is_in_the_context_cited_and_the_reply_must_name_it(server):
     assert report.text == "100 km/h on an expressway without signs. [jp-traffic-rules]" and report.tool_calls == []
     recorded = next(m for m in agent.history.messages if m.role == "user")
     assert recorded.data["retrieved"] == ["jp-traffic-rules"] and "[jp-traffic-rules]" in recorded.context
-    # the search tool stays for what retrieval missed
+    # a question with its passage is answered: no tool is offered, not even the search (Qwen 1.5B searched
+    # again and again beside the passage); without a passage the search stays for what retrieval missed
     names = [o["properties"]["name"]["const"] for o in request["response_format"]["json_schema"]["schema"]["oneOf"]
              if "name" in o["properties"]]
-    assert "knowledge__search_knowledge" in names and "set_reference_speed" in names
+    assert names == []
 
 
 def test_a_search_the_model_makes_anyway_is_read_back_in_a_few_lines(server):
@@ -124,3 +125,63 @@ def test_an_emergency_vehicle_in_the_situation_brings_the_rule_for_making_way_to
     assert [(f.document, f.section) for f in asyncio.run(run("How long is this car?"))] == [
         ("nissan-patrol-manual", "The car")]
     assert [f.section for f in asyncio.run(run("Hmm."))] == ["Making way for an emergency vehicle"]
+
+
+def test_the_rule_for_making_way_is_left_out_once_no_emergency_vehicle_needs_way():
+    """"The ambulance is gone" beside the rule for making way was answered "No need to change." (Qwen 1.5B,
+    Scenario 2): the rule bears on an emergency vehicle that needs way, not on one ahead of us."""
+    behind = "Current situation:\n- emergency vehicle ambulance 'amb0' 60 m behind us, in the center lane"
+    past = ("Current situation:\n- emergency vehicle ambulance 'amb0' 41 m ahead of us (past us: it needs no way "
+            "from us), in the center lane")
+    assert emergency_needs_way(behind) is True and emergency_needs_way(past) is False
+    assert emergency_needs_way("Current situation:\n- no emergency vehicle around") is False
+    assert emergency_needs_way(None) is None
+
+    async def run(message, situation):
+        async with Client(build_knowledge_server(KnowledgeBase())) as client:
+            async def search(tool, arguments):
+                return (await client.call_tool(tool, arguments)).content[0].text
+            return await retrieve(search, "search_knowledge", message, {"jurisdiction": "JP"}, situation)
+    assert [f.section for f in asyncio.run(run("Thank you. The ambulance is gone.", behind))] == [
+        "Making way for an emergency vehicle"]
+    assert asyncio.run(run("Thank you. The ambulance is gone.", past)) == []
+    assert asyncio.run(run("Hmm.", past)) == []
+    # a question still gets its passage
+    assert [f.section for f in asyncio.run(run("What must we do for an ambulance?", past))] == [
+        "Making way for an emergency vehicle"]
+
+
+def test_the_laws_limit_on_a_motorway_is_looked_up_said_and_kept_to_by_the_tool_layer():
+    """Qwen 1.5B set the road's 31.29 m/s for "120 km/h" on a Japanese motorway with the passage saying 100
+    km/h beside it: the law's limit for the road's type is found as the rules find it and the tool layer caps."""
+    from agentic_mpc.agent.backends.base import ToolSpec
+    from agentic_mpc.agent.messages import ToolCall
+    from agentic_mpc.agent.toolset import converted
+
+    async def run(road):
+        async with Client(build_knowledge_server(KnowledgeBase())) as client:
+            async def search(tool, arguments):
+                return (await client.call_tool(tool, arguments)).content[0].text
+            return await law_limit(search, "search_knowledge", road)
+    mps, line, document = asyncio.run(run({"jurisdiction": "JP", "road_type": "motorway"}))
+    assert (mps, document) == (27.8, "jp-traffic-rules") and "100 km/h" in line
+    assert asyncio.run(run({"jurisdiction": "US-CA", "road_type": "motorway"}))[0] == 29.1
+    assert asyncio.run(run({"jurisdiction": "JP"})) is None  # a road without a type: its signed limit is all
+    speed = ToolSpec("set_reference_speed", "", {"type": "object", "properties": {
+        "v_ref": {"type": "number", "minimum": 0, "maximum": 31.29}}, "required": ["v_ref"]})
+    call, note = converted(ToolCall("c", "set_reference_speed", {"v_ref": 120, "unit": "km/h"}), [speed],
+                           (27.8, "a motorway in JP [jp-traffic-rules]"))
+    assert call.arguments == {"v_ref": 27.8} and "the law's limit here (a motorway in JP [jp-traffic-rules])" in note
+    call, note = converted(ToolCall("c", "set_reference_speed", {"v_ref": 90, "unit": "km/h"}), [speed], (27.8, ""))
+    assert call.arguments == {"v_ref": 25} and note is None
+    call, _ = converted(ToolCall("c", "set_reference_speed", {"v_ref": 150, "unit": "km/h"}), [speed], (36.1, ""))
+    assert call.arguments == {"v_ref": 31.29}  # the road's limit where the law allows more
+
+
+def test_the_chat_backend_reads_the_laws_limit_of_the_step_being_answered():
+    from agentic_mpc.agent.backends.chat import law_limit as limit_of_step
+    from agentic_mpc.agent.messages import Message
+
+    earlier = Message("user", "Go 120 km/h.", source="user", data={"law_limit": {"mps": 27.8, "why": "JP"}})
+    assert limit_of_step([Message("system", "s"), earlier]) == (27.8, "JP")
+    assert limit_of_step([earlier, Message("user", "Hello.", source="user")]) is None  # this step's, not an earlier one's

@@ -134,3 +134,10 @@ def test_a_tactic_that_shapes_path_tracking_is_a_line_of_the_situation():
     said = describe_situation(EGO, None, SPEC, tactics=tactics)
     assert "- tactic pass_beside_queue: path tracking follows lane 0 instead of lane 1 to pass stopped" in said
     assert "tactic" not in describe_situation(EGO, None, SPEC, tactics={"rules": [], "active": None})
+
+
+def test_an_emergency_vehicle_ahead_of_us_is_said_to_need_no_way():
+    passed = {"emergency_vehicles": [{"id": "amb0", "type_id": "ambulance", "relation": "ahead", "distance_m": 41.0,
+                                      "lane_role": "center"}]}
+    assert ("- emergency vehicle ambulance 'amb0' 41 m ahead of us (past us: it needs no way from us), in the "
+            "center lane") in describe_situation(EGO, passed, None).splitlines()

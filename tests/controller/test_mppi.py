@@ -1,8 +1,11 @@
 """Fourier MPPI: the fast path equals the NumPy reference; the controller never outputs NaN."""
 
+import math
+
 import numpy as np
 import pytest
 
+from agentic_mpc import vehicle
 from agentic_mpc.controller import FourierMPPI, MPPIConfig
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.primitives import (
@@ -20,6 +23,7 @@ from agentic_mpc.primitives import (
     Surroundings,
     TrackingReference,
 )
+from agentic_mpc.vehicle import VEHICLE_MODELS, VehicleParams
 
 CURVE = LanePath(np.column_stack([np.linspace(0, 300, 301), 20 * np.sin(np.linspace(0, 300, 301) / 60)]))
 
@@ -77,9 +81,10 @@ def surroundings(horizon):
 
 @pytest.mark.parametrize("name", list(specifications()))
 @pytest.mark.parametrize("horizon, samples", [(50, 256), (17, 64)])
-def test_fast_path_equals_reference(name, horizon, samples):
+@pytest.mark.parametrize("plant", ["paper", "urban"])  # urban: steering past the short tan series' range
+def test_fast_path_equals_reference(name, horizon, samples, plant):
     spec = specifications()[name]
-    controller = FourierMPPI(MPPIConfig(horizon=horizon, samples=samples), seed=5)
+    controller = FourierMPPI(MPPIConfig(horizon=horizon, samples=samples), params=VEHICLE_MODELS[plant], seed=5)
     controller.mean = np.random.default_rng(1).normal(size=controller.mean.shape) * 0.4
     controller.previous_input = (0.2, -0.1)
     state = np.array([2.0, 1.0, 0.1, 14.0])
@@ -94,11 +99,12 @@ def test_fast_path_equals_reference(name, horizon, samples):
     assert np.allclose(np.einsum("s,ics->ic", weights_fast, z), np.einsum("s,ics->ic", weights_ref, z), atol=1e-10)
 
 
-def test_fast_and_reference_controllers_drive_identically():
+@pytest.mark.parametrize("plant", ["paper", "urban"])
+def test_fast_and_reference_controllers_drive_identically(plant):
     spec = specifications()["J1+J2+J3 lateral"]
     outputs = {}
     for backend in ("fast", "reference"):
-        controller = FourierMPPI(MPPIConfig(backend=backend), seed=11)
+        controller = FourierMPPI(MPPIConfig(backend=backend), params=VEHICLE_MODELS[plant], seed=11)
         state = np.array([0.0, 0.0, 0.0, 15.0])
         outputs[backend] = [controller.step(state, spec).inputs for _ in range(5)]
     assert np.allclose(outputs["fast"], outputs["reference"], atol=1e-9)
@@ -143,6 +149,23 @@ def test_weights_survive_non_finite_costs():
     assert weights is not None and np.isclose(weights.sum(), 1.0) and weights[0] == 0 and weights[2] == 0
     assert weighting.cost_min == 3.0
     assert controller.weights(np.array([np.nan, np.inf])).weights is None
+
+
+def test_a_plant_that_steers_further_than_the_fast_path_handles_is_refused():
+    with pytest.raises(ValueError, match="road-wheel angle"):
+        FourierMPPI(MPPIConfig(), params=VehicleParams(r_delta=1.0, l_r_m=1.5, l_f_m=1.5))
+
+
+def test_the_urban_plant_turns_at_junctions_and_the_papers_does_not():
+    """Full lock at 5 m/s for 4 s: the paper's identified model turns on a 32 m radius, the urban one on 4.8 m."""
+    radii = {}
+    for name, params in VEHICLE_MODELS.items():
+        state = np.array([0.0, 0.0, 0.0, 5.0])
+        for _ in range(100):
+            state = vehicle.step(state, 1.0, vehicle.throttle_for_steady_speed(5.0), 0.0, params)
+        radii[name] = params.l_r_m / math.sin(vehicle.slip_angle(1.0, params))
+        assert state[2] == pytest.approx(4.0 * 5.0 / radii[name], rel=0.02)
+    assert radii["paper"] == pytest.approx(32.1, abs=0.2) and radii["urban"] == pytest.approx(4.8, abs=0.1)
 
 
 def test_config_is_validated():

@@ -35,6 +35,7 @@ DURATION_S = {
     "traffic_density_sweep": 100.0,
     "emergency_rescue_lane_traffic": 115.0,  # sublane traffic is SUMO's dearest step: the ambulance's approach
     "incident_in_traffic": 110.0,  # past the first stopped car (the second is measured, not pinned)
+    "junction_osm_route": 190.0,  # 70 s of the route after the warm-up: lights, a turn, giving way
 }
 
 LEFT_OUT_VARIANTS = {

@@ -9,15 +9,34 @@ from types import SimpleNamespace
 import pytest
 
 from agentic_mpc.run.stuck import HOPELESS_S, REPORTED_S, StuckTracker
+from agentic_mpc.world.observation import JunctionAhead
 
 DT = 0.04
 
 
-def observation(t, speed, *, traffic=(), obstacles=(), lane=1, road_s=100.0):
+def observation(t, speed, *, traffic=(), obstacles=(), lane=1, road_s=100.0, junctions=()):
     """The ego at the origin heading along x, 2 m wide, its lane's centre on y = 0 (3.5 m lanes)."""
     ego = SimpleNamespace(speed_mps=speed, lane_index=lane, road_s_m=road_s, x_m=0.0, y_m=0.0, heading_rad=0.0,
                           width_m=2.0)
-    return SimpleNamespace(time_s=t, ego=ego, traffic=tuple(traffic), obstacles=tuple(obstacles))
+    return SimpleNamespace(time_s=t, ego=ego, traffic=tuple(traffic), obstacles=tuple(obstacles),
+                           junctions_ahead=tuple(junctions))
+
+
+def test_standing_at_a_red_light_or_giving_way_is_waiting_not_stuck():
+    def junction(distance, signal, must_yield=False):
+        return JunctionAhead("J", 110.0, 130.0, distance, "straight", signal, must_yield, False, None)
+
+    for ahead in (junction(4.0, "red"), junction(4.0, "yellow"), junction(3.0, None, must_yield=True)):
+        tracker = StuckTracker()
+        for step in range(200):
+            tracker.update(observation(step * 0.04, 0.0, junctions=[ahead]), v_ref_mps=13.0)
+        tracker.finish()
+        assert tracker.longest_s == 0.0, ahead
+    tracker = StuckTracker()  # green, or far from the line: standing there is stuck
+    for step in range(200):
+        tracker.update(observation(step * 0.04, 0.0, junctions=[junction(40.0, "red")]), v_ref_mps=13.0)
+    tracker.finish()
+    assert tracker.longest_s == pytest.approx(8.0)
 
 
 def car(gap, lane_offset=0, relation="ahead", lateral_m=0.0):

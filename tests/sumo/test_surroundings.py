@@ -85,7 +85,7 @@ class WithTactics:
 
 
 WITHOUT_DETOURS = TacticsConfig(rules=("queue_room", "passing_lanes", "gap_acceptance"))
-WITHOUT_MERGE_AHEAD = TacticsConfig(rules=ALL_RULES[:-1])
+WITHOUT_MERGE_AHEAD = TacticsConfig(rules=tuple(rule for rule in ALL_RULES if rule != "merge_ahead_of_queue"))
 
 
 def detour(within_m: float | None = 80.0) -> Detour:

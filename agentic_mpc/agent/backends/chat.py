@@ -92,6 +92,36 @@ def retrieved_ids(history: Sequence[Message]) -> tuple[str, ...]:
     return ()
 
 
+def law_limit(history: Sequence[Message]) -> tuple[float, str] | None:
+    """The law's speed limit on this road found for the step being answered (``data["law_limit"]``:
+    agent/retrieval.py), as (m/s, where it comes from), or None."""
+    for message in reversed(history):
+        if message.role == "user" and message.source != "agent":
+            found = (message.data or {}).get("law_limit")
+            if isinstance(found, dict) and isinstance(found.get("mps"), int | float):
+                return float(found["mps"]), str(found.get("why") or "")
+            return None
+    return None
+
+
+def _this_step(history: Sequence[Message]) -> Sequence[Message]:
+    """The step being answered: from the last message from outside the model's own answers on."""
+    starts = [i for i, m in enumerate(history) if m.role == "user" and m.source != "agent"]
+    return history[starts[-1]:] if starts else ()
+
+
+def is_question(message: str | None) -> bool:
+    """Whether the passenger asks a question ("What should we do for an ambulance?"; not a request put as one,
+    "could you ...?", "shall we?"), as the rules read it (``rules_parsing.interpret``): it gets a reply, never
+    a call. With an ambulance near, Qwen 1.5B answered 9 of 26 such questions with the yield call although
+    the system message says so; in ``json_schema`` mode the answer's schema now says it too."""
+    if not message or not message.strip():
+        return False
+    from agentic_mpc.agent.backends.rules_parsing import interpret
+
+    return interpret(message).question
+
+
 class ChatBackend:
     """Chat completions with tools (see the module docstring); subclasses implement :meth:`send`."""
 
@@ -126,11 +156,19 @@ class ChatBackend:
 
     def offered_tools(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> list[ToolSpec]:
         """What the model is shown for the step being answered: every tool (full prompt), or the toolset's
-        and those the step's message asks for, speeds with a unit (compact; agent/toolset.py)."""
+        and those the step's message asks for, speeds with a unit (compact; agent/toolset.py). A question
+        (:func:`is_question`) in ``json_schema`` mode: no tool of the car, so the answer is a reply (the
+        knowledge search if nothing was retrieved for it)."""
         if not self.compact:
             return list(tools)
         asked = next((m.content for m in reversed(history) if m.role == "user" and m.source != "agent"), None)
-        return [model_facing(t) for t in offered(tools, self.config.toolset, asked)]
+        shown = [model_facing(t) for t in offered(tools, self.config.toolset, asked)]
+        if self.config.effective_tool_mode == "json_schema" and is_question(asked):
+            # the search only where nothing was retrieved for it: offered beside passages, Qwen 1.5B searched
+            # again and again and never replied
+            searched = any(m.role == "tool" and (m.name or "").endswith(SEARCH_SUFFIX) for m in _this_step(history))
+            return [] if retrieved_ids(history) or searched else [t for t in shown if t.name.endswith(SEARCH_SUFFIX)]
+        return shown
 
     def _rendered(self, history: Sequence[Message], shown: Sequence[ToolSpec]) -> list[dict[str, Any]]:
         fitted = self.window.fit(history)
@@ -179,9 +217,9 @@ class ChatBackend:
         reply = self.parse_message(message, [t.name for t in tools])
         calls, text = list(reply.tool_calls), reply.text
         if self.compact:  # speeds to m/s, within the limit (agent/toolset.py): the model's units not trusted
-            notes = []
+            notes, law = [], law_limit(history)
             for index, call in enumerate(calls):
-                calls[index], note = converted(call, tools)
+                calls[index], note = converted(call, tools, law)
                 notes += [note] if note else []
             text = " ".join([text, *notes]).strip() if notes else text
         return BackendReply(text, tuple(calls), ModelUsage.from_response(data))

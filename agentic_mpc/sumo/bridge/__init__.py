@@ -18,7 +18,7 @@ can crash too, so an externally driven vehicle is inserted by a simulation step 
 
 One part per job: :mod:`.vehicles` (adding
 vehicles, driving the external one), :mod:`.drivers` (what SUMO's drivers are told), :mod:`.reading` (states in
-our conventions); here the simulation's start, step and end.
+our conventions), :mod:`.signals` (traffic lights, a junction's foes); here the simulation's start, step and end.
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ import libsumo
 from agentic_mpc.sumo.bridge.base import _LIBSUMO_ERRORS, _STATE_VARIABLES
 from agentic_mpc.sumo.bridge.drivers import DriverCommands
 from agentic_mpc.sumo.bridge.reading import Reading
+from agentic_mpc.sumo.bridge.signals import SignalReading
 from agentic_mpc.sumo.bridge.vehicles import VehicleCommands
 from agentic_mpc.sumo.options import declares_lefthand, sumo_command
 from agentic_mpc.sumo.options import error_message as _message
@@ -66,7 +67,7 @@ class SumoAlreadyRunningError(SumoError):
     """A second simulation in one process: libsumo would silently replace the first."""
 
 
-class SumoBridge(VehicleCommands, DriverCommands, Reading):
+class SumoBridge(VehicleCommands, DriverCommands, Reading, SignalReading):
     """One running SUMO simulation (libsumo), started on construction; use as a context manager.
 
     ``lateral_resolution_m`` switches the sublane model on (e.g. 0.4): other drivers then react to lateral

@@ -1,0 +1,173 @@
+"""The junctions on the ego's route and what they say each step: the light for its movement, whether it gives way,
+and how soon a vehicle with priority over it arrives (:class:`~agentic_mpc.world.observation.JunctionAhead`).
+
+Which movement is the ego's comes from the network (the connection from the lane it arrives in, through the
+junction's internal lanes); who crosses it from SUMO (``lane.getInternalFoes``, the junction's own logic); the
+foes' arrival from the vehicles on the lanes that feed the crossing movements. Joints where a road merely
+continues (no light, no crossing movement) are not junctions here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from agentic_mpc.sumo.bridge import SumoBridge
+from agentic_mpc.sumo.network import Road
+from agentic_mpc.world.observation import JunctionAhead
+
+SIGNALS = {"G": "green", "g": "green", "y": "yellow", "Y": "yellow", "r": "red", "u": "red", "s": "red",
+           "o": "off", "O": "off"}
+"""SUMO's link states as lights (``s``: a red that may be passed after stopping, rare; read as red)."""
+DIRECTIONS = {"s": "straight", "l": "left", "L": "left", "r": "right", "R": "right", "t": "turn"}
+MINOR_STATES = frozenset("gmsw=")
+"""Link states that give way: minor green, minor road, stop sign, all-way stop, right before left."""
+LOOK_AHEAD_M = 200.0
+"""Junctions further ahead are not reported."""
+FOES_WITHIN_M = 80.0
+"""Foes are looked for only when the ego is this close to the stop line."""
+FOE_SPEED_FLOOR_MPS = 0.5
+"""A foe slower than this further back than ``FOE_AT_LINE_M`` stands in a queue; at the line it may go any moment."""
+FOE_AT_LINE_M = 3.0
+FOE_LOOK_BACK_M = 80.0
+"""How far back along the lanes that feed a crossing movement its vehicles are looked for."""
+FOE_LANES = 8
+
+
+@dataclass(frozen=True, slots=True)
+class RouteJunction:
+    """One junction of the route (static): where on the path, the ego's movement, its light."""
+
+    junction_id: str
+    stop_s_m: float
+    exit_s_m: float
+    direction: str
+    internal_lanes: tuple[str, ...]
+    tls_id: str
+    link_index: int
+    state: str
+    """The connection's state in the network (``M`` major, ``m`` minor, ``s`` stop, ``w`` all-way stop, ...)."""
+
+
+class RouteJunctions:
+    """The route's junctions and, each step, the ones ahead as :class:`JunctionAhead` records."""
+
+    def __init__(self, road: Road, bridge: SumoBridge) -> None:
+        self.road = road
+        self.bridge = bridge
+        net = road.network.net
+        junctions: list[RouteJunction] = []
+        pieces = road.pieces
+        k = 0
+        while k < len(pieces):
+            piece, start = pieces[k]
+            if piece.internal or k + 1 >= len(pieces) or not pieces[k + 1][0].internal:
+                k += 1
+                continue
+            internal = []
+            j = k + 1
+            while j < len(pieces) and pieces[j][0].internal:
+                internal.extend(pieces[j][0].lane_ids)  # a junction's internal lanes in order
+                j += 1
+            stop_s, exit_s = pieces[k + 1][1], pieces[j][1] if j < len(pieces) else road.reference.length_m
+            leave = net.getLane(piece.lane_ids[-1])
+            connection = next((c for c in leave.getOutgoing() if c.getViaLaneID() == internal[0]), None)
+            k = j
+            if connection is None:
+                continue
+            tls = connection.getTLSID() or ""
+            if not tls and not any(bridge.internal_foes(lane) for lane in internal):
+                continue  # the road just continues here
+            junctions.append(RouteJunction(
+                pieces[k - 1][0].junction_id or "", stop_s, exit_s, DIRECTIONS.get(connection.getDirection(), "straight"),
+                tuple(internal), tls, connection.getTLLinkIndex() if tls else -1, connection.getState()))
+        self.junctions: tuple[RouteJunction, ...] = tuple(junctions)
+        self._route_edges = frozenset(road.edge_ids)
+        self.tls_ids = tuple(sorted({j.tls_id for j in junctions if j.tls_id}))
+        self._feeders = {lane: self._feeding(lane) for j in junctions for lane in j.internal_lanes}
+
+    def _feeding(self, internal_lane: str) -> tuple[tuple[str, int, str, str, tuple[tuple[str, float, float], ...]], ...]:
+        """Per foe of ``internal_lane``: (foe internal lane, its link index, its tls, its state in the network, the
+        lanes that lead to it: (lane id, its length, how far its end lies before the junction)). The lanes are
+        followed back :data:`FOE_LOOK_BACK_M`: an OpenStreetMap junction's feeding lane can be a few metres long,
+        and a car on the lane before appears at the line as if from nowhere."""
+        net = self.road.network.net
+        feeders = []
+        for foe in self.bridge.internal_foes(internal_lane):
+            for incoming in net.getLane(foe).getIncoming():
+                if incoming.getEdge().getFunction() == "internal" or incoming.getEdge().getID() in self._route_edges:
+                    continue  # not a lane that feeds the junction; or the ego's own road (it merges, not crosses)
+                connection = next((c for c in incoming.getOutgoing() if c.getViaLaneID() == foe), None)
+                if connection is None:
+                    continue
+                tls = connection.getTLSID() or ""
+                feeders.append((foe, connection.getTLLinkIndex() if tls else -1, tls, connection.getState(),
+                                _upstream(incoming, self._route_edges)))
+        return tuple(feeders)
+
+    def ahead(self, front_s_m: float) -> tuple[JunctionAhead, ...]:
+        """The junctions the ego's front has not left, within :data:`LOOK_AHEAD_M`, nearest first."""
+        upcoming = [j for j in self.junctions if j.exit_s_m > front_s_m and j.stop_s_m - front_s_m < LOOK_AHEAD_M]
+        if not upcoming:
+            return ()
+        states = self.bridge.signal_states(tuple({j.tls_id for j in upcoming if j.tls_id}))
+        return tuple(self._ahead(j, front_s_m, states) for j in upcoming[:2])
+
+    def _ahead(self, junction: RouteJunction, front_s_m: float, states: dict[str, str]) -> JunctionAhead:
+        char = states[junction.tls_id][junction.link_index] if junction.tls_id else junction.state
+        must_yield = char in MINOR_STATES
+        distance = junction.stop_s_m - front_s_m
+        foe_arrival = None
+        if must_yield and distance < FOES_WITHIN_M:
+            foe_arrival = self._foe_arrival_s(junction, states, char)
+        return JunctionAhead(
+            junction.junction_id, junction.stop_s_m, junction.exit_s_m, distance, junction.direction,  # type: ignore[arg-type]
+            SIGNALS.get(char) if junction.tls_id else None, must_yield, char in "sw", foe_arrival)
+
+    def _foe_arrival_s(self, junction: RouteJunction, states: dict[str, str], own: str) -> float | None:
+        """The soonest a vehicle on a crossing movement that has priority over the ego's reaches the junction (one
+        already on such a movement inside it: 0). Priority: a major green against a minor one, a major road
+        against a minor road or a stop sign, every movement at right-before-left or an all-way stop."""
+        soonest: float | None = None
+        for lane in junction.internal_lanes:
+            for foe, link_index, tls, state, upstream in self._feeders[lane]:
+                foe_state = states.get(tls, "r")[link_index] if tls else state
+                if not _has_priority_over(foe_state, own):
+                    continue  # stopped by its light, or giving way itself
+                if self.bridge.approaching(foe, 0.0):
+                    return 0.0
+                for feeder, length, before_m in upstream:
+                    for _vehicle_id, distance_m, speed_mps in self.bridge.approaching(feeder, length):
+                        distance_m += before_m
+                        if speed_mps < FOE_SPEED_FLOOR_MPS and distance_m > FOE_AT_LINE_M:
+                            continue  # standing in a queue further back
+                        arrival = distance_m / max(speed_mps, FOE_SPEED_FLOOR_MPS)
+                        soonest = arrival if soonest is None else min(soonest, arrival)
+        return soonest
+
+
+def _upstream(lane: Any, route_edges: frozenset[str]) -> tuple[tuple[str, float, float], ...]:
+    """``lane`` and the normal lanes before it, (id, length, distance from its end to ``lane``'s end), back to
+    :data:`FOE_LOOK_BACK_M` (at most :data:`FOE_LANES` lanes), none of the ego's route (on an OpenStreetMap
+    cluster the lane the ego waits in can lead round to a crossing movement: the ego must not wait for itself)."""
+    found = [(lane.getID(), lane.getLength(), 0.0)]
+    frontier = [(lane, 0.0)]
+    while frontier and len(found) < FOE_LANES:
+        current, before = frontier.pop(0)
+        reach = before + current.getLength()
+        if reach >= FOE_LOOK_BACK_M:
+            continue
+        for previous in current.getIncoming():
+            edge = previous.getEdge()
+            if (edge.getFunction() != "internal" and edge.getID() not in route_edges
+                    and previous.getID() not in {f[0] for f in found}):
+                found.append((previous.getID(), previous.getLength(), reach))
+                frontier.append((previous, reach))
+    return tuple(found[:FOE_LANES])
+
+
+def _has_priority_over(foe_state: str, own_state: str) -> bool:
+    """Whether a movement in ``foe_state`` goes before one in ``own_state`` (SUMO's link state characters)."""
+    if own_state in "=w":  # right before left, all-way stop: everyone there first, the ego waits for all
+        return foe_state in "=wMGO"
+    return foe_state in "MGO"  # a major road or a major green (O: a light that is off, read as major)

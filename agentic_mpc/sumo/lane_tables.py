@@ -1,0 +1,57 @@
+"""The lanes of the network that are not the ego's road, as lines to predict their vehicles along.
+
+On a route through junctions most traffic is on lanes the ego's road does not contain: oncoming lanes, the
+crossing streets, the junctions' internal lanes. Predicted at constant heading, a car on the oncoming lane of a
+slightly curved street drifts into the ego's lane within the horizon and holds the ego (measured on SUMO's
+``cross``); along its lane it does not. Each lane is continued by its successors while it has exactly one (an
+internal lane always has: it leads to its outgoing lane), then straight on, so a prediction never runs off it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from agentic_mpc.geometry import LanePath
+from agentic_mpc.polylines.polyline import Polyline
+
+CONTINUE_M = 80.0
+"""How far beyond a lane's end its line goes on (successors, then straight)."""
+
+
+class LaneTables:
+    """A :class:`Polyline` per SUMO lane id, built on first use from a sumolib network."""
+
+    def __init__(self, net: Any) -> None:
+        self.net = net
+        self._tables: dict[str, tuple[Polyline, LanePath] | None] = {}
+
+    def table(self, lane_id: str) -> tuple[Polyline, LanePath] | None:
+        """The lane's line continued beyond its end (None: no such lane)."""
+        if lane_id not in self._tables:
+            self._tables[lane_id] = self._build(lane_id)
+        return self._tables[lane_id]
+
+    def _build(self, lane_id: str) -> tuple[Polyline, LanePath] | None:
+        try:
+            lane = self.net.getLane(lane_id)
+        except KeyError:
+            return None
+        points = [(float(x), float(y)) for x, y in lane.getShape()]
+        beyond = 0.0
+        while beyond < CONTINUE_M:
+            onward = lane.getOutgoing()
+            if len(onward) != 1:
+                break
+            via = onward[0].getViaLaneID()
+            lane = self.net.getLane(via) if via else onward[0].getToLane()
+            shape = [(float(x), float(y)) for x, y in lane.getShape()]
+            beyond += sum(math.dist(a, b) for a, b in zip(shape, shape[1:]))
+            points.extend(shape if math.dist(points[-1], shape[0]) > 1e-6 else shape[1:])
+        (x0, y0), (x1, y1) = points[-2], points[-1]
+        length = math.hypot(x1 - x0, y1 - y0) or 1.0
+        points.append((x1 + (x1 - x0) / length * CONTINUE_M, y1 + (y1 - y0) / length * CONTINUE_M))
+        path = LanePath(np.array(points), name=lane_id)
+        return Polyline(path), path

@@ -1,0 +1,103 @@
+"""Routes through real networks: SUMO's own signalised crossroad (``sumo:tools/game/cross``, from the installed
+wheel), the ego's one lane through its junctions, the junctions it reads each step, and a closed-loop run that
+stops for red and turns."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agentic_mpc.scenario.schema import load_scenario
+from agentic_mpc.scenario.yaml_source import ScenarioFileError
+from agentic_mpc.sumo.config import RouteEnds, installed_sumo_file
+from agentic_mpc.sumo.network import NetworkError, RoadNetwork
+
+REPO = Path(__file__).resolve().parents[2]
+CROSS = installed_sumo_file("sumo:tools/game/cross/cross.net.xml")
+SCENARIO = REPO / "scenarios" / "junction_cross.yaml"
+
+
+def ends(from_edge: str, to_edge: str, *via: str) -> RouteEnds:
+    return RouteEnds.model_validate({"from": from_edge, "via": via, "to": to_edge})
+
+
+def test_a_sumo_path_names_a_file_of_the_installed_package():
+    assert CROSS.is_file() and CROSS.parts[-4:] == ("tools", "game", "cross", "cross.net.xml")
+    assert installed_sumo_file("../sumo_nets/straight.net.xml") == "../sumo_nets/straight.net.xml"
+
+
+@pytest.mark.parametrize(("to_edge", "turn_deg"), [("2fo", 0.0), ("4fo", 90.0), ("3fo", -90.0)])
+def test_sumos_router_finds_the_route_and_the_ego_gets_one_connected_lane_through_it(to_edge, turn_deg):
+    road = RoadNetwork(CROSS).road(ends("1fi", to_edge))
+    assert road.is_route and road.lane_count == 1 and road.edge_ids[0] == "1fi" and road.edge_ids[-1] == to_edge
+    shapes = [piece.shape for piece, _ in road.pieces]
+    assert max(math.dist(a[-1], b[0]) for a, b in zip(shapes, shapes[1:])) < 1.0  # each piece leads on
+    xy = road.lane_paths[0].coordinates
+    heading = np.unwrap(np.arctan2(*np.diff(xy, axis=0).T[::-1]))
+    assert math.degrees(heading[-1] - heading[0]) == pytest.approx(turn_deg, abs=12.0)
+    internal = [piece for piece, _ in road.pieces if piece.internal]
+    assert {piece.junction_id for piece in internal} >= {"0"}  # through the signalised junction
+    assert [start for _, start in road.pieces] == sorted(start for _, start in road.pieces)
+
+
+def test_the_turns_slower_lanes_are_speed_zones_of_the_route():
+    road = RoadNetwork(CROSS).road(ends("1fi", "3fo"))  # a right turn
+    assert road.speed_limit_mps == pytest.approx(13.89)
+    assert any(limit < 10.0 for _, _, limit in road.speed_zones)
+    assert all(start < end for start, end, _ in road.speed_zones)
+
+
+def test_a_route_that_is_not_connected_or_names_no_edge_is_refused_naming_the_edge():
+    network = RoadNetwork(CROSS)
+    with pytest.raises(NetworkError, match="edge '1fi' does not lead to '2o'"):
+        network.road(("1fi", "2o"))
+    with pytest.raises(NetworkError, match="no edge 'nowhere'"):
+        network.road(ends("1fi", "nowhere"))
+    with pytest.raises(NetworkError, match="no route from '2fo' to '1fi'"):
+        network.road(ends("2fo", "1fi"))  # 2fo ends at a dead end
+
+
+def test_a_route_through_a_via_edge_and_a_junction_whose_own_lanes_run_backwards_is_one_smooth_path():
+    """SUMO's OpenStreetMap import: at junction 1685653005 the internal lane points against both of its lanes."""
+    osm = RoadNetwork(installed_sumo_file("sumo:tools/game/DRT/osm.net.xml"))
+    road = osm.road(ends("153021549", "142575692#6", "-142575658#1"))
+    assert "-142575658#1" in road.edge_ids and road.reference.length_m > 2000.0
+    xy = road.lane_paths[0].coordinates
+    heading = np.arctan2(*np.diff(xy, axis=0).T[::-1])
+    turn = np.abs(np.angle(np.exp(1j * np.diff(heading))))
+    assert np.degrees(turn.max()) < 60.0  # no reversal between vertices anywhere on 2.8 km
+
+
+def test_a_scenario_with_a_missing_sumo_file_or_a_bad_route_fails_before_sumo_starts(tmp_path):
+    text = SCENARIO.read_text(encoding="utf-8").replace("../sumo_nets/", str(REPO / "sumo_nets") + "/")
+    (tmp_path / "a.yaml").write_text(text.replace("cross/cross.net.xml", "cross/crosss.net.xml"), encoding="utf-8")
+    with pytest.raises(ScenarioFileError, match=r"a\.yaml:\d+: simulation\.net_file: file not found: .*crosss"):
+        load_scenario(tmp_path / "a.yaml")
+    (tmp_path / "b.yaml").write_text(text.replace("{from: 1fi, to: 2fo}", "{from: 1fi}"), encoding="utf-8")
+    with pytest.raises(ScenarioFileError, match=r"b\.yaml:\d+: simulation\.road"):
+        load_scenario(tmp_path / "b.yaml")
+
+
+@pytest.fixture(scope="module")
+def straight_run(tmp_path_factory):
+    from agentic_mpc.scenario.runner import run_to_directory
+
+    out = tmp_path_factory.mktemp("cross")
+    return run_to_directory(SCENARIO, "straight", 1, out), out
+
+
+def test_the_ego_stops_for_red_goes_on_green_and_completes_its_route(straight_run):
+    import pandas as pd
+
+    summary, out = straight_run
+    assert summary["status"] == "ok", summary["error"]
+    assert summary["route_completed"] and summary["red_light_violations"] == 0
+    assert summary["collisions_ego_at_fault"] == 0 and summary["junctions_passed"] >= 1
+    events = pd.read_csv(out / "events.csv")
+    entered = events[(events.event == "junction_entered") & (events.content.astype(str) == "0")]
+    assert len(entered) == 1 and '"signal": "green"' in entered.result.iloc[0]
+    trajectory = pd.read_csv(out / "trajectory.csv")
+    assert trajectory.v_mps.min() < 0.1  # it stood (for red, or behind the queue at red)
