@@ -48,6 +48,8 @@ LAMPILOT = PAPER | {ToolName.CHANGE_LANE, ToolName.CHANGE_REFERENCE_SPEED, ToolN
                     ToolName.CHANGE_FOLLOWING_DISTANCE, ToolName.CLEAR_FOLLOWING_DISTANCE, ToolName.OVERTAKE,
                     ToolName.PULL_OVER}
 """With the lane tools: LaMPilot's manoeuvres."""
+ROUTES = frozenset({ToolName.TURN_AT_NEXT_JUNCTION, ToolName.DRIVE_TO})
+"""Wherever the server offers them (a route through junctions): choosing the way."""
 
 _FOLLOWING = (ToolName.SET_FOLLOWING_DISTANCE, ToolName.CHANGE_FOLLOWING_DISTANCE, ToolName.CLEAR_FOLLOWING_DISTANCE)
 ON_REQUEST: tuple[tuple[re.Pattern[str], tuple[str, ...]], ...] = (
@@ -75,6 +77,8 @@ SHORT = {
     ToolName.CLEAR_FOLLOWING_DISTANCE: "no following distance",
     ToolName.OVERTAKE: "overtake the car ahead on that side; afterwards 'keep' that lane or 'return'",
     ToolName.PULL_OVER: "pull over onto the hard shoulder and stop",
+    ToolName.TURN_AT_NEXT_JUNCTION: "take the next junction left, right or straight on",
+    ToolName.DRIVE_TO: "drive to that edge of the road network",
 }
 """One line per tool for a small model (the MCP description is the full one)."""
 
@@ -87,7 +91,7 @@ def base_names(tools: Sequence[ToolSpec], toolset: str) -> set[str]:
     """The names of the tools ``toolset`` offers on this road (every lane tool the server lists)."""
     if toolset == "all":
         return {t.name for t in tools}
-    family = LAMPILOT if toolset == "lampilot" else PAPER
+    family = (LAMPILOT if toolset == "lampilot" else PAPER) | ROUTES
     return {t.name for t in tools if t.name in family or lane_of_tool(t.name) is not None or _is_other_server(t)}
 
 

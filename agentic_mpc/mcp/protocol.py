@@ -39,6 +39,8 @@ class ToolName(StrEnum):
     CLEAR_FOLLOWING_DISTANCE = "clear_following_distance"
     OVERTAKE = "overtake"
     PULL_OVER = "pull_over"
+    TURN_AT_NEXT_JUNCTION = "turn_at_next_junction"
+    DRIVE_TO = "drive_to"
 
 
 def lane_tool_name(lane: str) -> str:
@@ -79,6 +81,10 @@ OBSERVATION_URIS = (EGO_URI, TRAFFIC_URI, EMERGENCY_VEHICLES_URI, OBSTACLES_URI)
 """The resources read from the world's latest observation; updated as the simulation advances."""
 VEHICLE_URI_TEMPLATE = "sumo://vehicle/{vehicle_id}"
 """One road user by id (the ego is ``ego``)."""
+ROUTE_URI = "sumo://route"
+"""Where a world with junctions has the ego going: the route's edges, where on it the ego is, the next junction
+where the road divides (its distance, the directions it offers, where the route goes, the light) and the
+junctions ahead (:mod:`agentic_mpc.world.routes`)."""
 ROAD_URI = "sumo://road"
 """The ego's road: its lanes (``left``/``center``/``right`` as the tools name them, SUMO index, role),
 ``traffic`` (``left-hand`` or ``right-hand``), ``edge_lane`` (where to pull over to yield), ``speed_limit_mps``,

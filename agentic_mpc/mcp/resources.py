@@ -3,7 +3,8 @@
 ``sumo://ego``, ``sumo://traffic``, ``sumo://emergency-vehicles``, ``sumo://obstacles`` are slices of the
 world's latest observation; ``sumo://vehicle/{vehicle_id}`` is one road user by id; ``sumo://road`` the
 road (:mod:`agentic_mpc.mcp.road`); ``mpc://specification``, ``mpc://specification/initial`` and
-``mpc://pool`` the controller's side; ``agent://memory`` the embedded agent's memory of its passenger.
+``mpc://pool`` the controller's side; ``sumo://route`` where a world with junctions has the ego going;
+``agent://memory`` the embedded agent's memory of its passenger.
 """
 
 # No `from __future__ import annotations`: the SDK reads the resource functions' annotations at runtime.
@@ -23,6 +24,7 @@ from agentic_mpc.mcp.protocol import (
     OBSTACLES_URI,
     POOL_URI,
     ROAD_URI,
+    ROUTE_URI,
     SPECIFICATION_URI,
     TACTICS_URI,
     TRAFFIC_URI,
@@ -51,7 +53,8 @@ _LISTS = {"traffic", "emergency_vehicles", "emergency_events", "obstacles", "col
 def register_resources(server: MCPServer, tools: ControllerTools, latest_observation: ObservationSource,
                        lane_index: LaneIndex | None = None, jurisdiction: str | None = None,
                        road_type: str | None = None, tactics: Callable[[], dict[str, Any]] | None = None,
-                       memory: Callable[[], dict[str, Any] | None] | None = None) -> None:
+                       memory: Callable[[], dict[str, Any] | None] | None = None,
+                       route: Callable[[], dict[str, Any]] | None = None) -> None:
     """Register every resource on ``server``."""
     slot = tools.slot
     for uri, name, description, keys in OBSERVATION_SLICES:
@@ -102,6 +105,14 @@ def register_resources(server: MCPServer, tools: ControllerTools, latest_observa
                      mime_type="application/json")
     def tactics_now() -> str:
         return to_json(tactics() if tactics is not None else {"rules": [], "active": None})
+
+    if route is not None:  # a world with junctions
+        @server.resource(ROUTE_URI, name="route", description="Where the car is going: the route's edges, where "
+                         "on it the car is, the next junction where the road divides (distance, the directions it "
+                         "offers, where the route goes, the light) and the junctions ahead.",
+                         mime_type="application/json")
+        def route_now() -> str:
+            return to_json(route())
 
     @server.resource(MEMORY_URI, name="memory", description="The agent's memory of this passenger across runs: "
                      "profile, file, standing preferences and entries (stated preferences, corrections).",

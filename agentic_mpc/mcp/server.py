@@ -179,6 +179,7 @@ class AgenticMPCServer:
         road_type: str | None = None,
         tactics: Callable[[], dict[str, Any]] | None = None,
         memory: Callable[[], dict[str, Any] | None] | None = None,
+        route: Callable[[], dict[str, Any]] | None = None,
     ) -> None:
         self.tools = tools
         self.lane_index = lane_index
@@ -201,7 +202,7 @@ class AgenticMPCServer:
         )
         self.server.on_tool_call = on_tool_call
         register_resources(self.server, tools, latest_observation, lane_index, jurisdiction, road_type, tactics,
-                           memory)
+                           memory, route)
         tools.slot.subscribe(lambda spec, version: self.bus.publish_threadsafe(ResourceUpdated(uri=SPECIFICATION_URI)))
 
     @property

@@ -41,6 +41,7 @@ from pydantic import ValidationError
 from agentic_mpc.geometry import LanePath
 from agentic_mpc.mcp.maneuvers import ManeuverTools, path_tracking_like, validated
 from agentic_mpc.mcp.protocol import ToolName, lane_tool_name
+from agentic_mpc.mcp.route_tools import RouteTools
 from agentic_mpc.mcp.tool_table import Side, SpeedMps, ToolCallError, lane_tool, tool
 from agentic_mpc.primitives import (
     PathTracking,
@@ -80,7 +81,7 @@ def attached_summary(specification: Specification) -> list[dict[str, Any]]:
     return specification.describe()
 
 
-class ControllerTools(ManeuverTools):
+class ControllerTools(ManeuverTools, RouteTools):
     """The tools over one specification slot, one lane source and (for the manoeuvre tools of
     :mod:`agentic_mpc.mcp.maneuvers`) one situation source: the ego's lane, speed and leader now.
 

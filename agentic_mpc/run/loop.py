@@ -115,11 +115,14 @@ class RunLoop:
         self.slot.subscribe(self.recorder.specification_changed)
         self.tools = ControllerTools(self.slot, world.lanes, steering_template,
                                      situation_source=lambda: situation_of(world.observation))
+        self.tools.route_planner = getattr(world, "route_planner", None)  # worlds with junctions: turn, drive to
+        self._road_version = getattr(world, "road_version", 0)
         self.server: AgenticMPCServer = build_server(
             self.tools, self._observation_json,
             **{"lane_index": world.lane_index_of, **(server_options or {})},  # sumo://road: the world's lane indices
             tactics=self.tactics.to_json if self.tactics is not None else None,
             memory=lambda: self.agent.memory_json() if self.agent is not None else None,  # agent://memory
+            route=self.tools.route_planner.describe if self.tools.route_planner is not None else None,
         )
         self.server.on_tool_call = self.recorder.tool_call_received  # who changed the specification
         self.detector = EmergencyDetector(settings.alert_distance_m)
@@ -170,6 +173,9 @@ class RunLoop:
         before, state = world.observation, world.ego_state
         path = getattr(specification.get("path_tracking"), "path", None)
         plan = None
+        if self.tactics is not None and getattr(world, "road_version", 0) != self._road_version:
+            self._road_version = world.road_version  # the ego took another route: its road for the tactics
+            self.tactics.retarget(world.tactical_road)
         if self.tactics is not None:  # between what the world observes and the controller
             side = getattr(specification.get("preferred_steering_direction"), "direction", None)
             plan = self.tactics.plan(before, world.lane_index_of(path), side)

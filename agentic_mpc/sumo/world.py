@@ -34,14 +34,15 @@ from agentic_mpc.sumo.junctions import RouteJunctions
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
 from agentic_mpc.sumo.outline import EgoOutline
+from agentic_mpc.sumo.road_readings import RoadReadings
 from agentic_mpc.sumo.route_files import RouteFileError, read_route_types, rescue_lanes_active, type_attribute
+from agentic_mpc.sumo.route_planner import SumoRoutePlanner, has_choices
 from agentic_mpc.sumo.start import open_bridge
 from agentic_mpc.sumo.surroundings import SurroundingsBuilder
 from agentic_mpc.tactics.covers import obstacle_circles
 from agentic_mpc.tactics.layer import TacticalPlan, TacticalRoad
 from agentic_mpc.vehicle import VEHICLE_MODELS, VehicleParams
 from agentic_mpc.world.base import WorldError, WorldReadings
-from agentic_mpc.world.lanes import RoadLanes
 from agentic_mpc.world.observation import Observation
 
 _RELEASE_EVERY_STEPS = 25  # drivers released from a rescue lane once a second at 0.04 s
@@ -56,7 +57,7 @@ class _Resolved:
     pos_m: float
 
 
-class SumoWorld(WorldReadings):
+class SumoWorld(RoadReadings, WorldReadings):
     """A :class:`~agentic_mpc.world.base.World` simulated by SUMO. ``seed`` is SUMO's seed (the run's)."""
 
     def __init__(self, config: SumoConfig, seed: int = 0, params: VehicleParams | None = None) -> None:
@@ -69,6 +70,11 @@ class SumoWorld(WorldReadings):
         self._sumo_steps = 0
         self._asked: set[str] = set()  # followers asked to open a gap for the ego in the last cycle
         self._observation: Observation | None = None
+        self._next_road: Road | None = None
+        self.junctions: RouteJunctions | None = None
+        """The junctions of the route (set once SUMO runs)."""
+        self.road_version = 0
+        """Counts the route changes (the run loop then gives the tactics the new road)."""
         if missing := [route_file for route_file in config.route_files if not Path(route_file).is_file()]:
             raise WorldError(f"route file not found: {missing[0]}")
         try:
@@ -101,7 +107,9 @@ class SumoWorld(WorldReadings):
             self._surroundings: dict[int, SurroundingsBuilder] = {}
             self._observer = ObservationBuilder(self.road, config.ego_id, self._bridge.info, self.obstacle_ids,
                                                 self._obstacle_state, config.centre_lateral_offsets)
-            self.junctions = RouteJunctions(self.road, self._bridge)
+            self.junctions = RouteJunctions(self.road, self._bridge, info.width_m)
+            self.route_planner = SumoRoutePlanner(self) if has_choices(self.road) else None
+            """Turns and destinations for the agent's tools (:mod:`agentic_mpc.world.routes`)."""
             self._observation = self._observe()
             self._intention = IntentionReader(self.road, self.ego_width_m, max_decel_mps2=config.announce_max_decel_mps2
                                               ) if config.announce_lane_changes else None
@@ -266,34 +274,6 @@ class SumoWorld(WorldReadings):
     def running(self) -> bool:
         return self._bridge is not None and self._bridge.running
 
-    def lanes(self) -> RoadLanes:
-        """The road's lanes by role and its speed limit (the lowest on the road)."""
-        lanes = {role: self.road.lane_paths[index] for role, index in self.road.lane_roles().items()}
-        limit = self.road.speed_limit_mps
-        first = self.network.edge(self.road.edge_ids[0]).getLanes()  # a lane cars may not use: a hard shoulder
-        shoulder = next((i for i, lane in enumerate(first) if not lane.allows("passenger")), None)
-        return RoadLanes(lanes, float(limit), self.road.lefthand, tuple(self.road.lane_paths),
-                         tuple(self.road.left_to_right), shoulder)
-
-    def lane(self, ref: int | str) -> tuple[str, LanePath]:
-        try:
-            index = self.road.lane_index(ref)
-        except NetworkError as error:
-            raise WorldError(str(error)) from error
-        return self.road.lane_role(index), self.road.lane_paths[index]
-
-    def lane_index_of(self, path: LanePath | None) -> int | None:
-        if path is None:
-            return None
-        cached = self._lane_of_path.get(id(path))
-        if cached is None or cached[0] is not path:  # ids are reused after garbage collection
-            lane = next((i for i, p in enumerate(self.road.lane_paths) if p is path or p == path), None)
-            cached = self._lane_of_path[id(path)] = (path, lane)
-        return cached[1]
-
-    def lateral_offset_m(self, lane_index: int, x_m: float, y_m: float) -> float:
-        return float(self.road.lane_paths[lane_index].lateral_offset(x_m, y_m)[0])
-
     def obstacle_circles(self, only_in_j2: bool = False) -> tuple[Circle, ...]:
         """J2 circles covering the configured obstacles (as SUMO placed them)."""
         wanted = {o.id for o in self.config.obstacles if o.in_j2 or not only_in_j2}
@@ -319,9 +299,33 @@ class SumoWorld(WorldReadings):
                 self.road, self.ego_length_m, self.ego_width_m, horizon, self.dt_s, self.config.surroundings)
         return builder
 
+    def use_route(self, road: Road) -> None:
+        """Drive ``road`` (a new route through the edge the ego is on) from the next step (any thread)."""
+        self._next_road = road
+
+    def _switch_road(self, road: Road) -> None:
+        """The new route between two steps: SUMO's ego follows it, every reading of the road is rebuilt."""
+        self._bridge.set_route(self.config.ego_id, road.edge_ids)
+        self.road, self._next_road, self.road_version = road, None, self.road_version + 1
+        self._observer = ObservationBuilder(
+            road, self.config.ego_id, self._bridge.info, self.obstacle_ids, self._obstacle_state,
+            self.config.centre_lateral_offsets)
+        self._surroundings.clear()
+        self._lane_of_path.clear()
+        self.junctions = RouteJunctions(road, self._bridge, self.ego_width_m)
+        if self._intention is not None:
+            self._intention = IntentionReader(road, self.ego_width_m, max_decel_mps2=self.config.announce_max_decel_mps2)
+        self.goal_s_m = self.config.goal_s_m if self.config.goal_s_m is not None else road.reference.length_m - 40.0
+
     def advance(self, delta: float, throttle: float, brake: float) -> Observation:
         if not self.running:
             raise WorldError("the SUMO world is closed")
+        if self._next_road is not None:
+            try:
+                self._switch_road(self._next_road)
+            except SumoError as error:
+                self.close()
+                raise WorldError(f"SUMO failed at t={self.time_s:.2f} s changing the route: {error}") from error
         state = self._state
         try:
             new_state = vehicle.step_plant(state, delta, throttle, brake, self.params)
@@ -398,5 +402,5 @@ class SumoWorld(WorldReadings):
         observation = self._observer.build(bridge.time_s, ego, others, bridge.emergency_vehicles(), bridge.collisions)
         if self.junctions.junctions:
             front_s = observation.ego.road_s_m + 0.5 * self.ego_length_m
-            observation = dataclasses.replace(observation, junctions_ahead=self.junctions.ahead(front_s))
+            observation = dataclasses.replace(observation, junctions_ahead=self.junctions.ahead(front_s, observation.traffic))
         return observation

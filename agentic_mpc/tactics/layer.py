@@ -98,6 +98,11 @@ class TacticsLayer:
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
 
+    def retarget(self, road: TacticalRoad) -> None:
+        """The ego's road changed (another route): the rules read the new one from the next step."""
+        self.road = road
+        self._junction_rules = JunctionRules(self.config, road.speed_zones)
+
     def queues(self, observation: Observation) -> tuple[Queue, ...]:
         """Each static obstacle ahead with the vehicles standing behind it in its lane (physical covers)."""
         if self._queues_of is observation:

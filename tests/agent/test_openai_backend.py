@@ -13,8 +13,9 @@ from agentic_mpc.agent.settings import OpenAISettings
 from agentic_mpc.mcp.protocol import ToolName
 from tests.agent.scripted_llm import Delay, Raw, ScriptedLLM, calls, text, tool_call
 
-PAPER_ROAD_TOOLS = ["run_center_lane", "run_left_lane", "run_right_lane",
-                    *(str(name) for name in ToolName if name != ToolName.PULL_OVER)]  # no emergency lane there
+PAPER_ROAD_TOOLS = ["run_center_lane", "run_left_lane", "run_right_lane",  # no emergency lane, no junction there
+                    *(str(name) for name in ToolName if name not in (
+                        ToolName.PULL_OVER, ToolName.TURN_AT_NEXT_JUNCTION, ToolName.DRIVE_TO))]
 PAPER_2A = "An ambulance is coming behind us. We'd better let them pass."
 
 

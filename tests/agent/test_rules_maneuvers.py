@@ -65,3 +65,27 @@ def test_relative_speeds(message, v_ref):
 def test_a_following_distance_with_no_length_asks_for_one():
     plan = RulesBackend().plan("Increase the following distance.", STATE, STATE, MANOEUVRES)
     assert plan.calls == [] and "metres" in plan.notes[0]
+
+
+ROUTE_TOOLS = {**MANOEUVRES, "turn_at_next_junction": ToolSpec("turn_at_next_junction", "", {"type": "object"})}
+
+
+@pytest.mark.parametrize(("message", "direction"), [
+    ("Turn left at the next junction.", "left"),
+    ("When we reach the intersection, take a right.", "right"),  # a condition the turn tool itself waits for
+    ("Make a right-turn at the lights.", "right"),
+    ("At the crossroads please carry on straight.", "straight"),
+    ("Go straight through the junction.", "straight"),
+    ("Head to the left at the corner.", "left"),
+])
+def test_turns_at_the_next_junction_where_the_road_has_junctions(message, direction):
+    assert calls(message, ROUTE_TOOLS) == [("turn_at_next_junction", {"direction": direction})]
+
+
+def test_a_turn_is_not_read_where_the_road_has_no_junctions_nor_without_a_way():
+    assert calls("Turn left at the next junction.") == []  # a motorway: no turn tool offered
+    plan = RulesBackend().plan("At the junction, left or right?", STATE, STATE, ROUTE_TOOLS)
+    assert plan.calls == []  # a question
+    asked = RulesBackend().plan("At the junction go left or maybe right", STATE, STATE, ROUTE_TOOLS)
+    assert asked.calls == [] and "Which way at the junction" in " ".join(asked.notes)
+    assert calls("Keep to the left lane.", ROUTE_TOOLS) != [("turn_at_next_junction", {"direction": "left"})]

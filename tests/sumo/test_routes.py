@@ -101,3 +101,45 @@ def test_the_ego_stops_for_red_goes_on_green_and_completes_its_route(straight_ru
     assert len(entered) == 1 and '"signal": "green"' in entered.result.iloc[0]
     trajectory = pd.read_csv(out / "trajectory.csv")
     assert trajectory.v_mps.min() < 0.1  # it stood (for red, or behind the queue at red)
+
+
+def test_the_agent_turns_at_the_next_junction_through_mcp_and_the_car_drives_the_new_route():
+    """SUMO's cross, the straight route: over MCP, sumo://route says what the junction offers; a way it does not
+    offer is refused with the reason and the car keeps its route; "left" takes it out of the west arm, 4fo."""
+    import asyncio
+    import json
+
+    from mcp import Client
+
+    from agentic_mpc.scenario.runner import build_loop, build_world
+
+    scenario = load_scenario(SCENARIO).variant("straight").with_seed(3)
+    world = build_world(scenario)
+    loop = build_loop(scenario, world, embedded_agent=False)
+
+    async def over_mcp():
+        async with Client(loop.server.mcp_server, cache=None) as client:
+            tools = {t.name: t for t in (await client.list_tools()).tools}
+            route = json.loads((await client.read_resource("sumo://route")).contents[0].text)
+            refused = await client.call_tool("drive_to", {"edge": "1fo"})  # back where it came from: no way there
+            turned = await client.call_tool("turn_at_next_junction", {"direction": "left"})
+            return tools, route, refused, turned
+
+    try:
+        loop.step()
+        tools, route, refused, turned = asyncio.run(over_mcp())
+        assert tools["turn_at_next_junction"].input_schema["properties"]["direction"]["enum"] == [
+            "left", "right", "straight"]
+        assert route["edges"] == ["1fi", "1si", "2o", "2fo"] and route["on_edge"] == "1fi"
+        assert route["next_choice"]["directions"] == ["left", "right", "straight"]
+        assert route["next_choice"]["route_goes"] == "straight" and route["next_choice"]["junction_id"] == "0"
+        assert refused.is_error and "no route from '1fi' to '1fo'" in refused.content[0].text
+        assert "the car keeps its route" in refused.content[0].text
+        assert not turned.is_error
+        while not loop.finished:
+            loop.step()
+        assert world.road.edge_ids == ("1fi", "1si", "4o", "4fo") and world.road_version == 1
+        assert world.observation.ego.edge_id == "4fo" and world.observation.ego.road_s_m >= world.goal_s_m
+        assert loop.recorder.metrics.junctions.red_light_violations == 0
+    finally:
+        loop.close()

@@ -183,8 +183,10 @@ class RulesBackend:
                 plan.notes.append(f"Looking up how to make way for an emergency vehicle in {jurisdiction}.")
                 return plan
             looked_up = knowledge.yield_rule(found, jurisdiction)
-        if not meaning.question and not meaning.conditional:
+        if not meaning.question:
             call, note = maneuver_call(text, tools)
+            if meaning.conditional and (call is None or call[0] != ToolName.TURN_AT_NEXT_JUNCTION):
+                call = note = None  # "when we get to the crossroad, turn left" is what the turn tool does; no other
             if call is not None or note is not None:
                 plan.calls += [call] if call is not None else []
                 plan.notes += [note] if note is not None else []

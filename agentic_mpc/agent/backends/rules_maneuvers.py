@@ -11,7 +11,10 @@ where the server offers that tool; anything else goes to the general grammar (:m
   in front (ahead); the side from "left"/"right" ("using the left lane"); "and come back" / "return" /
   "then merge back" returns to the lane afterwards, otherwise the passing lane is kept. Obstacles are not
   cars to overtake: "go around obstacles on the left" stays a steering preference;
-- pulling over onto the emergency lane / hard shoulder / shoulder and stopping ("park", "standstill").
+- pulling over onto the emergency lane / hard shoulder / shoulder and stopping ("park", "standstill");
+- choosing the way at the next junction, where the server offers ``turn_at_next_junction`` (a route through
+  junctions): "turn left", "take a right", "a left turn", or a side or "straight" said with the junction
+  (intersection, crossroad, junction, crossing, corner, lights): "keep to the left at the crossroad".
 """
 
 from __future__ import annotations
@@ -57,6 +60,11 @@ _SIDE = re.compile(r"\b(left|right)\b")
 
 _SHOULDER = re.compile(r"\b(?:emergency lane|hard shoulder|shoulder|breakdown lane)\b")
 
+_JUNCTION = re.compile(r"\b(?:intersections?|crossroads?|junctions?|crossings?|corners?|traffic lights?|lights)\b")
+_TURN = re.compile(r"\bturn(?:ing)?\s+(?:to\s+the\s+)?(left|right)\b|\b(?:take|make|hang)\s+a\s+(left|right)\b|"
+                   r"\b(left|right)(?:\s+|-)turn\b")
+_STRAIGHT = re.compile(r"\bstraight\b|\b(?:go|drive|continue|carry on|head)\s+(?:right\s+)?(?:on|through|across|ahead)\b")
+
 
 def _metres(match: re.Match[str]) -> float:
     value = float(next(group for group in match.groups() if group is not None))
@@ -70,6 +78,8 @@ def maneuver_call(text: str, tools: dict[str, Any]) -> tuple[tuple[str, dict[str
             _GAP_WORDS.search(s) or (_LEADER.search(s) or _FOLLOW.search(s)) and (re.search(_LENGTH, s)
                                                                             or _MORE_LENGTH.search(s))):
         return _following_distance(s)
+    if ToolName.TURN_AT_NEXT_JUNCTION in tools and (_TURN.search(s) or _JUNCTION.search(s)):
+        return _turn(s)
     if _SHOULDER.search(s) and ToolName.PULL_OVER in tools:
         return (str(ToolName.PULL_OVER), {}), "Pulling over onto the emergency lane and stopping."
     if _OVERTAKE.search(s) and _CAR_AHEAD.search(s) and not _OBSTACLE.search(s) and ToolName.OVERTAKE in tools:
@@ -81,6 +91,18 @@ def maneuver_call(text: str, tools: dict[str, Any]) -> tuple[tuple[str, dict[str
             f"Overtaking the car ahead on the {sides[0]}"
             + (", then back to this lane." if afterwards == "return" else ", then staying in that lane."))
     return None, None
+
+
+def _turn(s: str) -> tuple[tuple[str, dict[str, Any]] | None, str | None]:
+    turn = _TURN.search(s)
+    sides = {next(side for side in turn.groups() if side)} if turn else set(_SIDE.findall(s))
+    if _STRAIGHT.search(s) and not turn:
+        sides.add("straight")
+    if len(sides) != 1:
+        return None, "Which way at the junction: left, right or straight on?"
+    direction = sides.pop()
+    way = "straight on" if direction == "straight" else f"to the {direction}"
+    return (str(ToolName.TURN_AT_NEXT_JUNCTION), {"direction": direction}), f"Taking the next junction {way}."
 
 
 def _following_distance(s: str) -> tuple[tuple[str, dict[str, Any]] | None, str | None]:

@@ -147,6 +147,18 @@ class VehicleCommands(BridgeState):
         except _LIBSUMO_ERRORS as error:
             raise SumoError(f"cannot remove vehicle {vehicle_id!r}: {_message(error)}") from error
 
+    def set_route(self, vehicle_id: str, edge_ids: Iterable[str]) -> None:
+        """Give a vehicle a new route: ``edge_ids`` from the route edge it is on now (inside a junction, the one it
+        came from) onwards, so that SUMO's drivers see where it goes."""
+        self._require_running()
+        edges = list(edge_ids)
+        try:
+            route = libsumo.vehicle.getRoute(vehicle_id)
+            current = route[libsumo.vehicle.getRouteIndex(vehicle_id)]
+            libsumo.vehicle.setRoute(vehicle_id, edges[edges.index(current):] if current in edges else edges)
+        except _LIBSUMO_ERRORS as error:
+            raise SumoError(f"cannot give {vehicle_id!r} the route {edges}: {_message(error)}") from error
+
     # --- driving the external vehicle ------------------------------------------------------------------
     def move_external(
         self, vehicle_id: str, x_m: float, y_m: float, phi_rad: float, speed_mps: float | None = None,
