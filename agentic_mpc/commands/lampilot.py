@@ -109,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
     from agentic_mpc.lampilot.dataset import UNSUPPORTED_GROUPS, LampilotInputError, load_tasks, select_cases
     from agentic_mpc.lampilot.report import PUBLISHED, case_rows, write_outputs
     from agentic_mpc.lampilot.runner import write_case
+    from agentic_mpc.lampilot.scenes import scene_problem
 
     try:
         agent = agent_for(args)
@@ -124,11 +125,12 @@ def run(args: argparse.Namespace) -> int:
     cases = select_cases(tasks, args.per_task)
     jobs, unsupported = [], []
     for case in cases:
-        if case.task.group in UNSUPPORTED_GROUPS:
+        problem = scene_problem(case.sample.env)
+        if case.task.group in UNSUPPORTED_GROUPS or problem is not None:  # counted as a failure, the rest run
             unsupported.append({"task": case.task.name, "group": case.task.group, "case": case.case_id,
                                 "command": case.command, "seed": case.sample.seed, "status": "not run",
                                 "success": False, "collided": False, "score": 0.0,
-                                "reason": "not supported: the scene needs junctions"})
+                                "reason": problem or "not supported by this version"})
             continue
         case_file = args.out / "cases" / case.task.name / f"{case.case_id}.json"
         write_case(case, agent, case_file, args.speed_requests)

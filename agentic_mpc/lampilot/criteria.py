@@ -10,7 +10,11 @@ command; any case also fails on a collision (our footprint check) or on leaving 
 - ``LaneChangeEval``: in the adjacent lane on that side of the start lane, heading within 5 degrees of the lane's;
 - ``OvertakeEval``: in the adjacent lane on that side and more than two car lengths ahead of the leader it had
   at the command;
-- ``PullOverEval``: in the emergency (right-most) lane below 0.5 m/s.
+- ``PullOverEval``: in the emergency (right-most) lane below 0.5 m/s;
+- ``IntersectionEval`` (``direction`` = [lane start, exit, index]): on the named exit (``o1`` left, ``o2``
+  straight, ``o3`` right of the crossroad, :data:`EXITS`) with the heading within 5 degrees of its lane's (LaMPilot's
+  0.1 degree is an artefact of highway-env's cars, which snap to their lanes; a car that steers needs the lane
+  change criterion's tolerance).
 
 Driving score of a success: 0.5 TTC score + 0.3 speed-variance score + 0.2 time-efficiency score (each
 0-100; a failure scores 0).
@@ -34,6 +38,8 @@ HEADING_TOLERANCE_DEG = 5.0
 CAR_LENGTH_M = 5.0
 """highway-env's vehicle length: an overtake is done two of these (centre to centre) past the car."""
 STOPPED_MPS = 0.5
+EXITS = {"o1": "west_out", "o2": "north_out", "o3": "east_out"}
+"""LaMPilot's exits of the crossroad from the ego's south approach, as the edges of ``lampilot_crossroad``."""
 
 
 @dataclass(frozen=True)
@@ -55,6 +61,8 @@ class StepView:
     leader_speed_mps: float | None = None
     positions: Mapping[str, float] = field(default_factory=dict)
     """Along-road centre positions of the vehicles in view."""
+    edge_id: str = ""
+    """The network edge the ego is on ('' inside a junction or off the road)."""
 
     @property
     def time_to_collision_s(self) -> float:
@@ -105,8 +113,6 @@ class Judge:
             return self._decide(False, "no leader within 100 m at the command", view)
         if self.kind == "OvertakeEval" and self.start_leader is None:
             return self._decide(False, "no leader to overtake at the command", view)
-        if self.kind == "IntersectionEval":
-            return self._decide(False, "intersection scenes are not supported", view)
         met = self._met(view)
         if met and self.kind in ("ACCEvalbySpeed", "ACCEvalbyDistance"):
             if self.held_since_s is None:
@@ -140,6 +146,9 @@ class Judge:
                 return in_lane and abs(view.heading_error_deg) <= HEADING_TOLERANCE_DEG
             passed = view.positions.get(self.start_leader)
             return in_lane and passed is not None and view.road_s_m - passed > 2.0 * CAR_LENGTH_M
+        if self.kind == "IntersectionEval":
+            exit_edge = EXITS.get(str(self.evaluation["direction"][1]))
+            return view.edge_id == exit_edge and abs(view.heading_error_deg) <= HEADING_TOLERANCE_DEG
         if self.kind == "PullOverEval":
             return view.shoulder is not None and view.lane == view.shoulder and view.speed_mps < STOPPED_MPS
         return False

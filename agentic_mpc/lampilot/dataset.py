@@ -32,7 +32,7 @@ GROUPS = {
     "IntersectionEval": "intersection",
 }
 """Task groups, by the criterion their tasks are scored by."""
-UNSUPPORTED_GROUPS = ("intersection",)
+UNSUPPORTED_GROUPS: tuple[str, ...] = ()
 """Groups whose scenes need junctions: listed as not supported, counted as failures in the total."""
 
 
@@ -164,8 +164,8 @@ def _env_problems(where: str, env: dict[str, Any]) -> list[str]:
         if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
             problems.append(f"{where}.env.{key}: a non-negative number, got {value!r}")
     lanes = env.get("num_lanes")
-    if lanes is not None and (isinstance(lanes, bool) or not isinstance(lanes, int) or not 3 <= lanes <= 6):
-        problems.append(f"{where}.env.num_lanes: 3 to 6 lanes (the emergency lane included), got {lanes!r}")
+    if lanes is not None and (isinstance(lanes, bool) or not isinstance(lanes, int) or lanes < 2):
+        problems.append(f"{where}.env.num_lanes: a whole number of lanes (the emergency lane included), got {lanes!r}")
     ego = env.get("ego_vehicle")
     if not isinstance(ego, dict):
         problems.append(f"{where}.env.ego_vehicle: an object with speed, start_lane_index and start_position")

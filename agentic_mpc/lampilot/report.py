@@ -1,6 +1,6 @@
 """``cases.csv`` and the LaMPilot table: completion %, collision % and mean driving score per task group, over
-the highway tasks, and in total (intersection tasks listed as not supported and counted as failures in the
-total)."""
+the highway tasks, and in total (a case whose scene cannot be built is listed with its reason and counted as a
+failure in the total)."""
 
 from __future__ import annotations
 

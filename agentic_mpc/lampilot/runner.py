@@ -50,8 +50,9 @@ def write_case(case: Case, agent: dict[str, Any], path: Path, speed_requests: st
         path.write_text(text, encoding="utf-8")
 
 
-def step_view(world: Any, road: Any, time_s: float) -> StepView:
-    """The criterion's view of the world now (``time_s`` from the command)."""
+def step_view(world: Any, road: Any, time_s: float, by_network_lane: bool = False) -> StepView:
+    """The criterion's view of the world now (``time_s`` from the command); ``by_network_lane``: the heading against
+    the network lane the ego is on (a crossroad, where a turn makes the road another route)."""
     from agentic_mpc.world.lanes import situation_of
 
     observation, state = world.observation, world.ego_state
@@ -67,12 +68,29 @@ def step_view(world: Any, road: Any, time_s: float) -> StepView:
         outward = ego.lateral_offset_m if lane == 0 else -ego.lateral_offset_m if lane == len(road.by_index) - 1 else 0.0
         off_road = outward > 0.5 * LANE_WIDTH_M
     shoulder = None if road.shoulder_index is None else road.position_from_left(road.shoulder_index)
+    edge_id = ego.lane_id.rsplit("_", 1)[0] if ego.lane_id and not ego.lane_id.startswith(":") else ""
+    if edge_id and by_network_lane:
+        heading_error = _heading_error_deg(world.network.net.getLane(ego.lane_id).getShape(), state)
     return StepView(
         time_s, float(state[3]), None if off_road else lane, shoulder,
         heading_error if heading_error is not None else 0.0, off_road, observation.ego_collided, ego.road_s_m,
         situation.leader_id, situation.leader_gap_m, situation.leader_speed_mps,
-        {vehicle_id: s for vehicle_id, (s, _) in situation.positions.items()},
+        {vehicle_id: s for vehicle_id, (s, _) in situation.positions.items()}, edge_id,
     )
+
+
+def _heading_error_deg(shape: Any, state: Any) -> float:
+    """The ego's heading against the direction of the lane segment nearest to it, in degrees."""
+    x, y, phi = float(state[0]), float(state[1]), float(state[2])
+
+    def distance(segment: tuple[Any, Any]) -> float:
+        (ax, ay), (bx, by) = segment
+        length2 = (bx - ax) ** 2 + (by - ay) ** 2 or 1e-9
+        t = min(1.0, max(0.0, ((x - ax) * (bx - ax) + (y - ay) * (by - ay)) / length2))
+        return math.hypot(ax + t * (bx - ax) - x, ay + t * (by - ay) - y)
+
+    (ax, ay), (bx, by) = min(zip(shape, shape[1:]), key=distance)
+    return math.degrees(math.remainder(phi - math.atan2(by - ay, bx - ax), math.tau))
 
 
 def run_case(case_file: Path, variant: str, seed: int, out_dir: Path) -> dict[str, Any]:
@@ -91,6 +109,7 @@ def run_case(case_file: Path, variant: str, seed: int, out_dir: Path) -> dict[st
     loop = build_loop(scenario, world, transcript_path=out_dir / "transcript.jsonl", server_options=options)
     command_at_s = WARMUP_S + COMMAND_DELAY_S
     road = world.lanes()
+    by_network_lane = case.sample.eval["type"] == "IntersectionEval"
     judge: Judge | None = None
     verdict: Verdict | None = None
     error: BaseException | None = None
@@ -100,11 +119,11 @@ def run_case(case_file: Path, variant: str, seed: int, out_dir: Path) -> dict[st
             since_s = world.time_s - command_at_s
             if since_s < -1e-9:
                 continue
-            view = step_view(world, road, since_s)
+            view = step_view(world, road, since_s, by_network_lane)
             judge = judge or Judge(case.sample.eval, view)
             verdict = judge.update(view)
         if judge is not None and verdict is None:
-            verdict = judge.time_out(step_view(world, road, world.time_s - command_at_s))
+            verdict = judge.time_out(step_view(world, road, world.time_s - command_at_s, by_network_lane))
     except BaseException as failure:  # what was recorded is written; the batch records the failure
         error = failure
         raise

@@ -57,6 +57,20 @@ needs a leader within 100 m (``ACCEvalbyDistance``, ``OvertakeEval``), when the 
 NEEDS_A_LEADER = ("ACCEvalbyDistance", "OvertakeEval")
 
 
+SHOULDER_LANE_COUNTS = (3, 4, 5, 6)
+"""The ``dt-highway-v0`` lane counts (the emergency lane included) that nets are built for (sumo_nets/build.py)."""
+
+
+def scene_problem(env: dict[str, Any]) -> str | None:
+    """Why this sample's scene cannot be built here (its case is then counted as a failure with this reason), or
+    None."""
+    lanes = env.get("num_lanes")
+    if env.get("type") == "dt-highway-v0" and lanes is not None and lanes not in SHOULDER_LANE_COUNTS:
+        return (f"the scene cannot be built: num_lanes {lanes} (nets exist for {SHOULDER_LANE_COUNTS[0]}-"
+                f"{SHOULDER_LANE_COUNTS[-1]} lanes, the emergency lane included)")
+    return None
+
+
 def scene_network(env: dict[str, Any]) -> tuple[str, int, int | None]:
     """(net name, lane count, emergency lane from the left or None) of a sample's ``env``."""
     if env["type"] == "ramp-merge-v0":
@@ -119,6 +133,12 @@ def case_scenario(case: Case, agent: dict[str, Any], nets_dir: Path) -> Any:  # 
     from agentic_mpc.scenario.schema import Scenario
 
     env = case.sample.env
+    if env["type"] == "dt-intersection-v0":
+        from agentic_mpc.lampilot.crossroad import intersection_scenario
+
+        return Scenario.model_validate(intersection_scenario(
+            f"lampilot_{case.task.name}", case.command, env, case.sample.seed, agent, nets_dir, WARMUP_S,
+            WARMUP_S + COMMAND_DELAY_S, TIME_LIMIT_S))
     net, lanes, shoulder = scene_network(env)
     road_m = MOTORWAY_M if net == "lampilot_motorway" else SHOULDER_M
     start_lane = min(int(env["ego_vehicle"]["start_lane_index"][2]), lanes - 1)

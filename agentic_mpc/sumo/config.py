@@ -88,6 +88,9 @@ class VehicleSpawn(_Placed):
     speed_factor: float | None = Field(None, gt=0)
     imperfection: float | None = Field(None, ge=0, le=1, description="Krauss sigma (0 = perfect driver)")
     lane_changes: bool = Field(True, description="False: SUMO never changes this vehicle's lane")
+    route: tuple[str, ...] | None = Field(
+        None, description="connected edges it drives (a crossing street); edge_id is then one of them and lane "
+        "SUMO's index there (None: the ego's road from edge_id on)")
 
 
 class StaticObstacle(_Placed):

@@ -10,8 +10,6 @@ continues (no light, no crossing movement) are not junctions here.
 from __future__ import annotations
 
 from dataclasses import dataclass
-import math
-from collections.abc import Sequence
 from typing import Any
 
 from agentic_mpc.sumo.bridge import SumoBridge
@@ -34,10 +32,6 @@ FOE_AT_LINE_M = 3.0
 FOE_LOOK_BACK_M = 80.0
 """How far back along the lanes that feed a crossing movement its vehicles are looked for."""
 FOE_LANES = 8
-BOX_CHECKED_WITHIN_M = 30.0
-"""Nearer the line than this, a vehicle inside the junction on the ego's way holds the ego at it."""
-BOX_MARGIN_M = 0.6
-"""Clearance beyond the ego's half width that a vehicle inside a junction must leave the ego's path."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,10 +52,9 @@ class RouteJunction:
 class RouteJunctions:
     """The route's junctions and, each step, the ones ahead as :class:`JunctionAhead` records."""
 
-    def __init__(self, road: Road, bridge: SumoBridge, ego_width_m: float = 2.0) -> None:
+    def __init__(self, road: Road, bridge: SumoBridge) -> None:
         self.road = road
         self.bridge = bridge
-        self.clear_half_width_m = 0.5 * ego_width_m + BOX_MARGIN_M
         net = road.network.net
         junctions: list[RouteJunction] = []
         pieces = road.pieces
@@ -112,50 +105,24 @@ class RouteJunctions:
                                 _upstream(incoming, self._route_edges)))
         return tuple(feeders)
 
-    def ahead(self, front_s_m: float, traffic: Sequence[Any] = ()) -> tuple[JunctionAhead, ...]:
-        """The junctions the ego's front has not left, within :data:`LOOK_AHEAD_M`, nearest first (``traffic``:
-        the observation's vehicles, to tell one standing inside a junction on the ego's way)."""
+    def ahead(self, front_s_m: float) -> tuple[JunctionAhead, ...]:
+        """The junctions the ego's front has not left, within :data:`LOOK_AHEAD_M`, nearest first."""
         upcoming = [j for j in self.junctions if j.exit_s_m > front_s_m and j.stop_s_m - front_s_m < LOOK_AHEAD_M]
         if not upcoming:
             return ()
         states = self.bridge.signal_states(tuple({j.tls_id for j in upcoming if j.tls_id}))
-        return tuple(self._ahead(j, front_s_m, states, traffic) for j in upcoming[:2])
+        return tuple(self._ahead(j, front_s_m, states) for j in upcoming[:2])
 
-    def _ahead(self, junction: RouteJunction, front_s_m: float, states: dict[str, str], traffic: Sequence[Any]
-               ) -> JunctionAhead:
+    def _ahead(self, junction: RouteJunction, front_s_m: float, states: dict[str, str]) -> JunctionAhead:
         char = states[junction.tls_id][junction.link_index] if junction.tls_id else junction.state
         must_yield = char in MINOR_STATES
         distance = junction.stop_s_m - front_s_m
         foe_arrival = None
         if must_yield and distance < FOES_WITHIN_M:
             foe_arrival = self._foe_arrival_s(junction, states, char)
-        blocked_by = self._standing_across(junction, traffic) if 0.0 <= distance < BOX_CHECKED_WITHIN_M else None
         return JunctionAhead(
             junction.junction_id, junction.stop_s_m, junction.exit_s_m, distance, junction.direction,  # type: ignore[arg-type]
-            SIGNALS.get(char) if junction.tls_id else None, must_yield, char in "sw", foe_arrival, blocked_by)
-
-    def _standing_across(self, junction: RouteJunction, traffic: Sequence[Any]) -> str | None:
-        """A vehicle inside the junction whose body reaches the ego's way through it (closer to the path than
-        :attr:`clear_half_width_m`, between the stop line and the exit), or None. Not only SUMO's foes: in an OpenStreetMap
-        cluster a queue on a movement SUMO does not count as crossing the ego's stood on the ego's way, and the
-        ego that had gone in waited behind it for good (seed 303 of the OpenStreetMap route: a car 3.9 m from the
-        path, turned across it, its corner 1.5 m from the path)."""
-        prefix = f":{junction.junction_id}_"
-        road = self.road
-        own = set(junction.internal_lanes)
-        for vehicle in traffic:
-            if not vehicle.lane_id.startswith(prefix) or vehicle.lane_id in own:
-                continue
-            s = float(road.road_s(vehicle.x_m, vehicle.y_m)[0])
-            if not junction.stop_s_m - 1.0 <= s <= junction.exit_s_m + 1.0:
-                continue
-            lateral = float(road.lateral_from_reference(vehicle.x_m, vehicle.y_m)[0])
-            tx, ty = road.reference.tangents_at([s])[0]
-            angle = vehicle.heading_rad - math.atan2(ty, tx)  # its body reaches this far sideways of our path:
-            reach = 0.5 * vehicle.length_m * abs(math.sin(angle)) + 0.5 * vehicle.width_m * abs(math.cos(angle))
-            if abs(lateral) - reach < self.clear_half_width_m:
-                return vehicle.id
-        return None
+            SIGNALS.get(char) if junction.tls_id else None, must_yield, char in "sw", foe_arrival)
 
     def _foe_arrival_s(self, junction: RouteJunction, states: dict[str, str], own: str) -> float | None:
         """The soonest a vehicle on a crossing movement that has priority over the ego's reaches the junction (one

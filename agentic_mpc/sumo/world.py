@@ -17,7 +17,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +33,7 @@ from agentic_mpc.sumo.junctions import RouteJunctions
 from agentic_mpc.sumo.network import NetworkError, Road, RoadNetwork
 from agentic_mpc.sumo.observations import ObservationBuilder
 from agentic_mpc.sumo.outline import EgoOutline
+from agentic_mpc.sumo.placement import Placement, place_on_road, place_on_route
 from agentic_mpc.sumo.road_readings import RoadReadings
 from agentic_mpc.sumo.route_files import RouteFileError, read_route_types, rescue_lanes_active, type_attribute
 from agentic_mpc.sumo.route_planner import SumoRoutePlanner, has_choices
@@ -46,15 +46,6 @@ from agentic_mpc.world.base import WorldError, WorldReadings
 from agentic_mpc.world.observation import Observation
 
 _RELEASE_EVERY_STEPS = 25  # drivers released from a rescue lane once a second at 0.04 s
-
-
-@dataclass
-class _Resolved:
-    """Config positions resolved against the network."""
-
-    edge_id: str
-    lane_index: int
-    pos_m: float
 
 
 class SumoWorld(RoadReadings, WorldReadings):
@@ -92,7 +83,10 @@ class SumoWorld(RoadReadings, WorldReadings):
         for obstacle in config.obstacles:
             self._resolve(obstacle.edge_id, obstacle.lane, obstacle.pos_m, f"obstacle {obstacle.id!r}")
         for spawn in config.vehicles:
-            self._resolve(spawn.edge_id, spawn.lane, spawn.pos_m, f"vehicle {spawn.id!r}")
+            if spawn.route is not None:
+                place_on_route(self.network, spawn)
+            else:
+                self._resolve(spawn.edge_id, spawn.lane, spawn.pos_m, f"vehicle {spawn.id!r}")
         goal = config.goal_s_m if config.goal_s_m is not None else self.road.reference.length_m - 40.0
         if not 0.0 < goal <= self.road.reference.length_m:
             raise WorldError(f"goal_s_m={goal} is not on the road (0..{self.road.reference.length_m:.1f} m)")
@@ -107,7 +101,7 @@ class SumoWorld(RoadReadings, WorldReadings):
             self._surroundings: dict[int, SurroundingsBuilder] = {}
             self._observer = ObservationBuilder(self.road, config.ego_id, self._bridge.info, self.obstacle_ids,
                                                 self._obstacle_state, config.centre_lateral_offsets)
-            self.junctions = RouteJunctions(self.road, self._bridge, info.width_m)
+            self.junctions = RouteJunctions(self.road, self._bridge)
             self.route_planner = SumoRoutePlanner(self) if has_choices(self.road) else None
             """Turns and destinations for the agent's tools (:mod:`agentic_mpc.world.routes`)."""
             self._observation = self._observe()
@@ -123,24 +117,10 @@ class SumoWorld(RoadReadings, WorldReadings):
             raise
 
     # --- set-up --------------------------------------------------------------------------------------
-    def _resolve(self, edge_id: str | None, lane: LaneRef, pos_m: float, what: str) -> _Resolved:
-        edge_id = edge_id or self.road.edge_ids[0]
-        if edge_id not in self.road.edge_ids:
-            raise WorldError(f"{what}: edge {edge_id!r} is not on the road {list(self.road.edge_ids)}")
-        try:
-            index = self.road.lane_index(lane)
-        except NetworkError as error:
-            raise WorldError(f"{what}: {error}") from error
-        lane_id = self.road.sumo_lane_id(edge_id, index)
-        index = int(lane_id.rsplit("_", 1)[1])  # SUMO's index on that edge from here on
-        length = self.network.edge(edge_id).getLane(index).getLength()
-        if not 0.0 <= pos_m <= length:
-            raise WorldError(
-                f"{what} is off the road: position {pos_m} m outside lane {edge_id}_{index} (0..{length:.1f} m)"
-            )
-        return _Resolved(edge_id, index, pos_m)
+    def _resolve(self, edge_id: str | None, lane: LaneRef, pos_m: float, what: str) -> Placement:
+        return place_on_road(self.road, self.network, edge_id, lane, pos_m, what)
 
-    def _initial_state(self, start: _Resolved, speed_mps: float | None = None) -> np.ndarray:
+    def _initial_state(self, start: Placement, speed_mps: float | None = None) -> np.ndarray:
         """Centre pose of the ego's start (front at pos_m, lateral_offset_m aside), at speed_mps or as configured."""
         x_front, y_front, phi = self.road.pose_on_lane(f"{start.edge_id}_{start.lane_index}", start.pos_m)
         ego_length = self._type_attribute(self.config.ego_type_id, "length", 5.0)
@@ -218,7 +198,7 @@ class SumoWorld(RoadReadings, WorldReadings):
             self.close()
             raise
 
-    def _insert_ego(self, start: _Resolved) -> None:
+    def _insert_ego(self, start: Placement) -> None:
         """Wait for SUMO to insert the ego at its requested spot; if that stays occupied (dense traffic after a
         warm-up), try the free gaps of its lane nearest to it. Records the spot in ``ego_start``."""
         c, bridge = self.config, self._bridge
@@ -234,24 +214,29 @@ class SumoWorld(RoadReadings, WorldReadings):
                 min_gap_m=self._type_attribute(c.ego_type_id, "minGap", 2.5),
                 speed_mps=speed_mps, fits=lambda p: self._fits(start, p), wait_steps=round(0.5 / self.dt_s),
             )
-            self._state = self._initial_state(_Resolved(start.edge_id, start.lane_index, pos), speed_mps)
+            self._state = self._initial_state(Placement(start.edge_id, start.lane_index, pos), speed_mps)
         matched = {"speed_mps": speed_mps} if speed_mps != c.ego.speed_mps else {}  # to the leader it met
         self.ego_start = {"edge_id": start.edge_id, "lane_index": start.lane_index, "requested_pos_m": start.pos_m,
                           "pos_m": pos, "requested_at_s": requested_s, "inserted_at_s": bridge.time_s, **matched}
 
-    def _fits(self, start: _Resolved, pos_m: float) -> bool:
+    def _fits(self, start: Placement, pos_m: float) -> bool:
         """Whether the ego starting at ``pos_m`` on the start lane (with its lateral offset) is on the road."""
         try:
-            self._initial_state(_Resolved(start.edge_id, start.lane_index, pos_m))
+            self._initial_state(Placement(start.edge_id, start.lane_index, pos_m))
         except WorldError:
             return False
         return True
 
     def _add_spawns(self) -> None:
         for spawn in self.config.vehicles:
-            r = self._resolve(spawn.edge_id, spawn.lane, spawn.pos_m, spawn.id)
+            if spawn.route is not None:  # its own way (checked connected at set-up), from its edge on
+                route_id, r = f"route_of_{spawn.id}", place_on_route(self.network, spawn)
+                self._bridge.add_route(route_id, spawn.route[spawn.route.index(r.edge_id):])
+            else:
+                r = self._resolve(spawn.edge_id, spawn.lane, spawn.pos_m, spawn.id)
+                route_id = self._route_from(r.edge_id)
             self._bridge.add_vehicle(
-                spawn.id, self._route_from(r.edge_id), spawn.type_id, lane_index=r.lane_index, pos_m=r.pos_m,
+                spawn.id, route_id, spawn.type_id, lane_index=r.lane_index, pos_m=r.pos_m,
                 speed_mps=spawn.speed_mps, depart_s=spawn.depart_s,
             )
             self._bridge.configure_vehicle(
@@ -312,7 +297,7 @@ class SumoWorld(RoadReadings, WorldReadings):
             self.config.centre_lateral_offsets)
         self._surroundings.clear()
         self._lane_of_path.clear()
-        self.junctions = RouteJunctions(road, self._bridge, self.ego_width_m)
+        self.junctions = RouteJunctions(road, self._bridge)
         if self._intention is not None:
             self._intention = IntentionReader(road, self.ego_width_m, max_decel_mps2=self.config.announce_max_decel_mps2)
         self.goal_s_m = self.config.goal_s_m if self.config.goal_s_m is not None else road.reference.length_m - 40.0
@@ -402,5 +387,5 @@ class SumoWorld(RoadReadings, WorldReadings):
         observation = self._observer.build(bridge.time_s, ego, others, bridge.emergency_vehicles(), bridge.collisions)
         if self.junctions.junctions:
             front_s = observation.ego.road_s_m + 0.5 * self.ego_length_m
-            observation = dataclasses.replace(observation, junctions_ahead=self.junctions.ahead(front_s, observation.traffic))
+            observation = dataclasses.replace(observation, junctions_ahead=self.junctions.ahead(front_s))
         return observation

@@ -4,8 +4,7 @@
   cap J1's reference speed, braking for them at ``speed_zones.decel_mps2`` ahead of where they begin.
 - ``traffic_lights``: red, or yellow when the ego can still stop at ``traffic_lights.stop_decel_mps2``: stop at
   the line. Green, or a yellow it cannot stop for: go.
-- ``right_of_way``: never into a junction while a car is in it across the ego's way; at a stop sign stop at the
-  line first; where the ego's movement gives way (a minor road, a
+- ``right_of_way``: at a stop sign stop at the line first; where the ego's movement gives way (a minor road, a
   left turn on green, an all-way stop) it goes only when no vehicle with priority arrives within
   ``right_of_way.gap_s`` and that gap has stayed open ``right_of_way.gap_held_s``. Once its front is past the
   line it never stops in the junction.
@@ -81,11 +80,7 @@ class JunctionRules:
             needed = speed_mps * speed_mps / (2.0 * max(junction.distance_m, 0.1))
             if needed <= config.traffic_lights.yellow_stop_decel_mps2:
                 return "yellow light"
-        if not config.uses("right_of_way"):
-            return None
-        if junction.blocked_by is not None:
-            return f"{junction.blocked_by} is in the junction across our way"
-        if not junction.must_yield:
+        if not config.uses("right_of_way") or not junction.must_yield:
             return None
         if junction.stop_sign and junction.junction_id not in self._stopped_at:
             if junction.distance_m <= STOPPED_WITHIN_M and speed_mps <= STANDING_MPS:

@@ -213,6 +213,7 @@ class CollisionObservation:
         return _rounded(self)
 
 
+@_fast_init
 @dataclass(frozen=True, slots=True)
 class JunctionAhead:
     """A junction on the ego's route that it has not left yet, as the world sees it this step."""
@@ -234,9 +235,6 @@ class JunctionAhead:
     foe_arrival_s: float | None
     """How soon the first vehicle on a movement with priority over the ego's reaches the junction (0: inside it;
     None: none within sight, or the ego has priority)."""
-    blocked_by: str | None = None
-    """A vehicle inside the junction on the ego's way through it (the ego waits before the line until it has gone:
-    SUMO's drivers pass through each other inside a junction, the ego cannot)."""
 
     def to_json(self) -> dict[str, Any]:
         return _rounded(self)
