@@ -93,7 +93,8 @@ class SurroundingsBuilder:
         """The road and sizes the tactics layer sees (its queues are then the ones these covers make)."""
         c = self.config
         return TacticalRoad(self._lane_centres, self.ego_length_m, self.ego_width_m, c.clearance_margin_m,
-                            c.max_discs_per_vehicle, c.range_ahead_m, self.road.speed_zones)
+                            c.max_discs_per_vehicle, c.range_ahead_m, self.road.speed_zones,
+                            self.road.speed_limit_mps)
 
     def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
         """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""

@@ -47,9 +47,11 @@ class JunctionRules:
     """The three rules over the observation's ``junctions_ahead`` and the road's speed zones (stateful: which
     stop signs the ego has stopped at)."""
 
-    def __init__(self, config: TacticsConfig, speed_zones: tuple[tuple[float, float, float], ...] = ()) -> None:
+    def __init__(self, config: TacticsConfig, speed_zones: tuple[tuple[float, float, float], ...] = (),
+                 speed_limit_mps: float = math.inf) -> None:
         self.config = config
         self.speed_zones = speed_zones if config.uses("speed_zones") else ()
+        self.speed_limit_mps = speed_limit_mps
         self._stopped_at: set[str] = set()
         self._gap_since: dict[str, float] = {}  # per junction where the ego gives way: since when the gap is open
 
@@ -108,4 +110,6 @@ class JunctionRules:
                 cap = allowed
             if start > front_s_m + 200.0:
                 break
-        return cap, None if cap is None else "the route's speed limits (a turn or a slower road) ahead"
+        if cap is None or cap >= self.speed_limit_mps:  # far from every slower zone: no cap to speak of
+            return None, None
+        return cap, "the route's speed limits (a turn or a slower road) ahead"

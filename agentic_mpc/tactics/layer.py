@@ -10,6 +10,7 @@ offers one gets the same rules. docs/traffic.md says what each rule does and why
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,6 +35,8 @@ class TacticalRoad:
     range_ahead_m: float = 80.0
     speed_zones: tuple[tuple[float, float, float], ...] = ()
     """(start, end along the road, speed limit) of the route's stretches slower than the road's limit."""
+    speed_limit_mps: float = math.inf
+    """The road's limit: a zone's cap at or above it changes nothing (and is not reported)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,7 +96,7 @@ class TacticsLayer:
 
     def __post_init__(self) -> None:
         self._detour = Detour(self.config)
-        self._junction_rules = JunctionRules(self.config, self.road.speed_zones)
+        self._junction_rules = JunctionRules(self.config, self.road.speed_zones, self.road.speed_limit_mps)
         self.junction_reason: str | None = None
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
@@ -101,7 +104,7 @@ class TacticsLayer:
     def retarget(self, road: TacticalRoad) -> None:
         """The ego's road changed (another route): the rules read the new one from the next step."""
         self.road = road
-        self._junction_rules = JunctionRules(self.config, road.speed_zones)
+        self._junction_rules = JunctionRules(self.config, road.speed_zones, road.speed_limit_mps)
 
     def queues(self, observation: Observation) -> tuple[Queue, ...]:
         """Each static obstacle ahead with the vehicles standing behind it in its lane (physical covers)."""

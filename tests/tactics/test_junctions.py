@@ -91,6 +91,9 @@ def test_slower_stretches_of_the_route_cap_the_speed_ahead_of_them():
         math.sqrt(36.0 + 2.0 * decel * (150.0 - front_s)))
     assert rules.decide(observation(6.0, road_s_m=155.0), EGO_LENGTH_M).speed_cap_mps == 6.0
     assert rules.decide(observation(6.0, road_s_m=200.0), EGO_LENGTH_M).speed_cap_mps is None
+    limited = JunctionRules(TacticsConfig(), zones, speed_limit_mps=13.89)  # far ahead the zone allows more
+    far = limited.decide(observation(12.0, road_s_m=0.0), EGO_LENGTH_M)
+    assert far.speed_cap_mps is None and far.reason is None
     assert JunctionRules(TacticsConfig(rules=("traffic_lights",)), zones).decide(
         observation(12.0), EGO_LENGTH_M).speed_cap_mps is None
 
