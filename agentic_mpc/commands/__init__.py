@@ -67,6 +67,9 @@ def add_backend_flags(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tool-mode", choices=("native", "json_schema"), default=None,
                         help="openai, llamacpp: native tool calling, or the answer constrained by a JSON schema of "
                              "the tools (native for openai, json_schema for llamacpp)")
+    parser.add_argument("--confirmation", choices=("template", "model"), default=None,
+                        help="openai, llamacpp: after calls that did what the message asked, the reply written from "
+                             "their results (template, the default) or by the model")
     parser.add_argument("--temperature", type=float, default=None, help="openai, llamacpp: sampling temperature (0)")
     parser.add_argument("--max-tokens", type=positive_int, default=None, help="openai, llamacpp: tokens per answer "
                                                                               "(512)")
@@ -179,7 +182,7 @@ def flag_settings(args: argparse.Namespace) -> dict:
 
     settings: dict = {"backend": args.backend}
     names = ("base_url", "model", "api_key_env", "timeout_s", "threads", "ctx_size", "tool_mode", "temperature",
-             "max_tokens", "extra_prompt", "yield_lane", "step_budget_tokens", "warm_up", "rules_first")
+             "max_tokens", "confirmation", "extra_prompt", "yield_lane", "step_budget_tokens", "warm_up", "rules_first")
     settings.update({name: getattr(args, name) for name in names if getattr(args, name, None) not in (None, "")})
     if getattr(args, "model_path", None) is not None:
         settings["model"] = args.model_path

@@ -38,7 +38,7 @@ PROG = "agentic-mpc eval-agent"
 _ONLY_FOR = {"model_path": ("llamacpp",), "threads": ("llamacpp",), "ctx_size": ("llamacpp",),
              "base_url": ("openai",), "model": ("openai",), "api_key_env": ("openai",), "extra_body": ("openai",),
              **{name: ("openai", "llamacpp") for name in ("tool_mode", "temperature", "max_tokens", "timeout_s",
-                                                         "extra_prompt")},
+                                                         "confirmation", "extra_prompt")},
              "yield_lane": ("rules",), "rules_first": ("openai", "llamacpp")}
 
 

@@ -132,13 +132,14 @@ def test_a_call_written_as_the_text_of_a_structured_reply_is_read_as_the_call():
 
 
 def test_a_dialogues_earlier_steps_reach_the_model_in_a_line_each_not_as_its_replies(server):
-    script = [calls(tool_call("run_right_lane", {"v_ref": 0, "unit": "m/s"})), text("Pulled over."),
-              calls(tool_call("run_center_lane", {"v_ref": 15, "unit": "m/s"})), text("Back.")]
+    script = [calls(tool_call("run_right_lane", {"v_ref": 0, "unit": "m/s"})),
+              calls(tool_call("run_center_lane", {"v_ref": 15, "unit": "m/s"}))]  # the replies: from the results
     with ScriptedLLM(script) as llm, Agent(model(llm), server) as agent:
         agent.deliver("Ambulance behind us!").result(30)
         report = agent.deliver("It's gone.").result(30)
     assert report.applied_calls == [{"tool": "run_center_lane", "arguments": {"v_ref": 15}}]
-    second = llm.requests[2]["messages"]
+    assert len(llm.requests) == 2 and report.text.startswith("Done: run_center_lane(v_ref=15")
+    second = llm.requests[1]["messages"]
     assert [m["role"] for m in second] == ["system", "user"]  # no earlier replies to copy
     assert second[1]["content"].startswith("Earlier in this drive:\n- passenger: Ambulance behind us!\n"
                                            "  you called run_right_lane(v_ref=0)\n\nCurrent situation")

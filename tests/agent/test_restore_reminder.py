@@ -18,7 +18,9 @@ ON = AgentConfig(restore_reminder=True)
 
 
 def backend(llm: ScriptedLLM) -> OpenAIBackend:
-    return OpenAIBackend(OpenAISettings(base_url=llm.base_url, model="scripted", api_key_env=None))
+    # the model answers its results itself (not agent/backends/follow_up.py's reply written from them)
+    return OpenAIBackend(OpenAISettings(base_url=llm.base_url, model="scripted", api_key_env=None,
+                                        confirmation="model"))
 
 
 def _yield_script() -> list:
@@ -104,7 +106,8 @@ def test_in_json_schema_mode_the_note_follows_the_models_reply_and_the_restoring
     answers = ['{"name": "run_left_lane", "arguments": {"v_ref": 0}}', '{"reply": "Pulling over."}',
                '{"reply": "We can go on."}', '{"name": "run_center_lane", "arguments": {"v_ref": 15}}',
                '{"reply": "Back to normal."}']
-    structured = OpenAISettings(base_url="", model="scripted", api_key_env=None, tool_mode="json_schema")
+    structured = OpenAISettings(base_url="", model="scripted", api_key_env=None, tool_mode="json_schema",
+                                confirmation="model")
     with ScriptedLLM([text(a) for a in answers]) as llm:
         config = structured.model_copy(update={"base_url": llm.base_url})
         with Agent(OpenAIBackend(config), server, ON) as agent:

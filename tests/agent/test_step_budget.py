@@ -19,6 +19,7 @@ LLAMA_TIMINGS = {"cache_n": 1200, "prompt_n": 60, "prompt_ms": 2000.0, "predicte
 
 
 def backend(llm: ScriptedLLM, **options) -> OpenAIBackend:
+    options.setdefault("confirmation", "model")  # every answer from the model, as these budgets count them
     return OpenAIBackend(OpenAISettings(base_url=llm.base_url, model="m", api_key_env=None, **options))
 
 

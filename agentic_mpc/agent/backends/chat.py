@@ -23,6 +23,7 @@ from pydantic import Field
 from agentic_mpc.agent.backends.base import Backend, BackendError, BackendReply, ModelUsage, ToolSpec
 from agentic_mpc.agent.backends.call_parsing import TEXT_CALL_PREFIX, calls_from_text, parse_arguments
 from agentic_mpc.agent.backends.context import ContextWindow
+from agentic_mpc.agent.backends.follow_up import follow_up_note, left_undone, template_reply
 from agentic_mpc.agent.backends.structured import ToolMode, render_messages, response_format
 from agentic_mpc.agent.compact_prompt import compact_history, compact_system_prompt
 from agentic_mpc.agent.config import AgentConfig, AgentRunSettings
@@ -58,6 +59,12 @@ class ChatSettings(AgentRunSettings):
         "auto", description="compact prompt: the tools offered to the model (auto and paper: the paper's; "
                             "lampilot: with LaMPilot's manoeuvres; all), the rest when a message asks for them "
                             "(agent/toolset.py)")
+    confirmation: Literal["template", "model"] = Field(
+        "template", description="compact prompt, after calls that all succeeded: template: when they made every "
+                                "kind of change the message asks for (and no passage was retrieved for it, which "
+                                "the model's reply cites), the reply is written from their results without asking "
+                                "the model, else the model is told what is left; model: the model answers the "
+                                "results (agent/backends/follow_up.py)")
 
     def agent_config(self, **runtime: Any) -> AgentConfig:
         runtime.setdefault("backend_timeout_s", self.timeout_s + 5.0)  # the backend's own timeout runs out first
@@ -180,6 +187,8 @@ class ChatBackend:
             if extra and fitted and fitted[-1].role == "user":
                 note = "Also for this message: " + "; ".join(f"{signature(t)}: {short_description(t)}" for t in extra)
                 fitted[-1] = replace(fitted[-1], context="\n\n".join(filter(None, [fitted[-1].context, note])))
+            if self.follows_up and (undone := left_undone(history)):
+                fitted[-1] = replace(fitted[-1], content=f"{fitted[-1].content} {follow_up_note(undone)}")
         return render_messages(fitted, self.config.effective_tool_mode)
 
     def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> dict[str, Any]:
@@ -206,7 +215,14 @@ class ChatBackend:
         """The chat completion for ``body`` (a dict with ``choices``); :class:`BackendError` if none."""
         raise NotImplementedError
 
+    @property
+    def follows_up(self) -> bool:
+        return self.compact and self.config.confirmation == "template"
+
     async def complete(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> BackendReply:
+        if self.follows_up and not retrieved_ids(history) and left_undone(history) == {}:
+            # all done: the results say it; where passages were retrieved, the model replies citing the rule
+            return BackendReply(template_reply(history))
         data = await self.send(self.request_body(history, tools))
         try:
             message = data["choices"][0]["message"]
