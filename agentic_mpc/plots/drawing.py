@@ -28,6 +28,10 @@ CLASS_COLOURS = {"ego": ("#16a34a", "#052e16"), "traffic": ("#94a3b8", "#0f172a"
 """(fill, outline) of a footprint by class, as in the replay."""
 CLASS_LABELS = {"ego": "ego", "traffic": "traffic", "emergency": "emergency vehicle",
                 "stopped": "stopped car / obstacle"}
+SIGNAL_COLOURS = {"red": "#dc2626", "yellow": "#facc15", "green": "#22c55e", "off": "#9ca3af"}
+"""A stop line's colour by its light (the replay's); an ``unobserved`` light is not drawn."""
+NETWORK_FILL = "0.86"
+"""The other streets and the junctions: a shade darker than the ego's road."""
 DEFAULT_LANE_WIDTH_M = 3.5
 """The lane width when a road has a single lane to measure it from."""
 
@@ -79,6 +83,48 @@ def draw_road(ax: Any, road: dict[str, list[np.ndarray]], view: Any, surface: bo
     for line in road["edges"]:
         xy = view(line)
         ax.plot(xy[:, 0], xy[:, 1], color="0.3", lw=1.3, zorder=0.3)
+
+
+def draw_network(ax: Any, network: Any, view: Any, near: tuple[float, float, float, float] | None = None,
+                 outline_only: bool = False) -> None:
+    """The streets and junctions around the ego's road (a :class:`~agentic_mpc.plots.network.NetworkDrawing`):
+    their paved area filled under the road, the lines between lanes dashed; ``outline_only`` (an overview): the
+    lanes' centre lines, thin. ``near`` (xmin, ymin, xmax, ymax): only what reaches into this box is drawn."""
+    from matplotlib.collections import LineCollection, PolyCollection
+
+    def reaches(points: np.ndarray) -> bool:
+        if near is None:
+            return True
+        return bool(points[:, 0].max() >= near[0] and points[:, 0].min() <= near[2]
+                    and points[:, 1].max() >= near[1] and points[:, 1].min() <= near[3])
+
+    if outline_only:
+        lines = [view(line) for _, line in network.lanes if reaches(line)]
+        ax.add_collection(LineCollection(lines, colors="0.75", linewidths=0.5, zorder=0.1))
+        return
+    surfaces = [view(outline) for outline in network.surface_outlines if reaches(outline)]
+    ax.add_collection(PolyCollection(surfaces, facecolors=NETWORK_FILL, edgecolors=NETWORK_FILL, linewidths=0.3,
+                                     zorder=0))
+    dividers = [view(line) for line in network.dividers if reaches(line)]
+    ax.add_collection(LineCollection(dividers, colors="0.6", linewidths=0.6, linestyles=(0, (6, 6)), zorder=0.1))
+
+
+def draw_stop_lines(ax: Any, view: Any, lights: Iterable[tuple[float, float, float, str]],
+                    width_m: float = DEFAULT_LANE_WIDTH_M) -> list[Any]:
+    """A bar across the ego's lane at each stop line (x, y, heading of the lane, its light's state), in the
+    light's colour; returns the bars (an animation removes them for the next frame)."""
+    from matplotlib.patches import Polygon
+
+    drawn = []
+    for x, y, heading, state in lights:
+        if state not in SIGNAL_COLOURS:
+            continue
+        c, s = math.cos(heading), math.sin(heading)
+        local = np.array([[-0.4, -width_m / 2], [0.4, -width_m / 2], [0.4, width_m / 2], [-0.4, width_m / 2]])
+        corners = np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
+        drawn.append(ax.add_patch(Polygon(view(corners), closed=True, facecolor=SIGNAL_COLOURS[state],
+                                          edgecolor="0.1", lw=0.7, zorder=3.2)))
+    return drawn
 
 
 def footprint(ax: Any, view: Any, x: float, y: float, heading: float, length: float, width: float, cls: str,

@@ -17,7 +17,7 @@ import pandas as pd
 from agentic_mpc.plots.drawing import centre_lines, colour_of, mark_events, plt, road_lines, save
 from agentic_mpc.plots.panels import draw_places, places_layout
 from agentic_mpc.plots.places import Window, ambulance_distance, snapshot_time, tool_calls, zoom_windows
-from agentic_mpc.plots.runs import PlottedRun, plotted_run
+from agentic_mpc.plots.runs import PlottedRun, network_of, plotted_run
 from agentic_mpc.run.files import FIGURE, TRAJECTORY
 from agentic_mpc.run.reader import Obstacle
 
@@ -27,8 +27,9 @@ def _places_figure(rows: dict[str, list[PlottedRun]], colours: dict[str, str], l
     """A figure with ``title``, the overview and zoomed panels of ``rows`` (variant: runs) and, below, a
     grid of ``series_rows`` time-series rows (None without). A fixed layout: no layout engine to run.
     Returns (figure, that grid, the windows)."""
-    road = road_lines(list(lanes))
+    road: dict[str, Any] = dict(road_lines(list(lanes)))
     runs = [run for variant_runs in rows.values() for run in variant_runs]
+    road["network"] = network_of(runs)  # the streets and junctions around a route (None on the paper's roads)
     windows = zoom_windows(runs, road["edges"] or None)
     layout = places_layout(windows, road, runs, len(rows), width_in)
     series_in = 2.0 * series_rows + 0.6 if series_rows else 0.0

@@ -4,7 +4,9 @@ A thin overview of the whole road with the windows numbered on it, then a row of
 (one per window): the road's surface, edges, lane lines and centre lines, every trial's path, the stopped
 cars, and one trial's vehicles at one moment as their footprints (rectangles turned with their heading),
 coloured by class: the ego green, traffic grey, emergency vehicles red with a blue outline (their track
-dotted), stopped cars dark (:mod:`agentic_mpc.plots.drawing`: the replay's colours). Each panel keeps equal
+dotted), stopped cars dark (:mod:`agentic_mpc.plots.drawing`: the replay's colours). On a SUMO network the other
+streets and the junctions lie under the road (``road["network"]``, :mod:`agentic_mpc.plots.network`) and the
+stop lines of the lights the ego met are bars in the light's colour at that moment. Each panel keeps equal
 scales and has a 10 m bar.
 """
 
@@ -15,7 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from agentic_mpc.plots.drawing import CLASS_COLOURS, CLASS_LABELS, draw_obstacles, draw_road, footprint
+from agentic_mpc.plots.drawing import (
+    CLASS_COLOURS,
+    CLASS_LABELS,
+    SIGNAL_COLOURS,
+    draw_network,
+    draw_obstacles,
+    draw_road,
+    draw_stop_lines,
+    footprint,
+)
 from agentic_mpc.plots.places import Window, snapshot_time
 from agentic_mpc.plots.runs import PlottedRun
 
@@ -47,13 +58,16 @@ def _draw_snapshot(ax: Any, window: Window, run: PlottedRun, t: float) -> set[st
     return drawn
 
 
-def draw_panel(ax: Any, window: Window, road: dict[str, list[np.ndarray]], runs: list[PlottedRun], colour: str,
+def draw_panel(ax: Any, window: Window, road: dict[str, Any], runs: list[PlottedRun], colour: str,
                snapshot: PlottedRun | None) -> set[str]:
     """One zoomed panel: road, every run's path in ``colour``, obstacles, ``snapshot``'s vehicles.
     Returns the classes drawn (for the legend)."""
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
     (u0, u1), (v0, v1) = window.limits()
+    if road.get("network") is not None:
+        low, high = window.corners().min(axis=0) - 5.0, window.corners().max(axis=0) + 5.0
+        draw_network(ax, road["network"], window.view, near=(low[0], low[1], high[0], high[1]))
     draw_road(ax, road, window.view)
     for run in runs:
         xy = window.view(run.trajectory[["x_m", "y_m"]].to_numpy(dtype=float))
@@ -62,6 +76,8 @@ def draw_panel(ax: Any, window: Window, road: dict[str, list[np.ndarray]], runs:
     t = snapshot_time(snapshot, window) if snapshot is not None else None
     if snapshot is not None and t is not None:
         drawn |= _draw_snapshot(ax, window, snapshot, t)
+        if draw_stop_lines(ax, window.view, snapshot.lights_at(t)):
+            drawn.add("stop line")
     elif snapshot is not None:
         ax.text(0.5, 0.5, "the ego never got here", transform=ax.transAxes, ha="center", va="center", fontsize=8,
                 color="0.4")
@@ -88,11 +104,13 @@ def panel_title(number: int, window: Window) -> str:
     return f"[{number}] {name}{more}"
 
 
-def draw_overview(ax: Any, road: dict[str, list[np.ndarray]], rows: dict[str, list[PlottedRun]],
+def draw_overview(ax: Any, road: dict[str, Any], rows: dict[str, list[PlottedRun]],
                   colours: dict[str, str], windows: list[Window]) -> None:
     """The whole road, every path, the obstacles and the numbered windows, at equal scales."""
     from matplotlib.patches import Polygon
 
+    if road.get("network") is not None:
+        draw_network(ax, road["network"], np.asarray, outline_only=True)
     draw_road(ax, {**road, "boundaries": []}, np.asarray, surface=False)
     xs, ys = [], []
     for variant, runs in rows.items():
@@ -124,7 +142,7 @@ LEFT_IN, RIGHT_IN, GAP_IN = 0.8, 0.25, 0.45
 """Margins of the fixed layout (inches): room for the row labels and tick labels, no layout engine to run."""
 
 
-def places_layout(windows: list[Window], road: dict[str, list[np.ndarray]], runs: list[PlottedRun], n_rows: int,
+def places_layout(windows: list[Window], road: dict[str, Any], runs: list[PlottedRun], n_rows: int,
                   width_in: float) -> dict[str, Any]:
     """Sizes in inches of the overview and the panels for a figure ``width_in`` wide: one scale (inches per
     metre) for every panel, so that widths follow the windows' lengths; ``height`` is the whole block's."""
@@ -156,11 +174,14 @@ def legend_handles(colours: dict[str, str], classes: set[str]) -> list[Any]:
         if cls in classes:
             fill, outline = CLASS_COLOURS[cls]
             handles.append(Patch(facecolor=fill, edgecolor=outline, label=CLASS_LABELS[cls]))
+    if "stop line" in classes:
+        handles.append(Patch(facecolor=SIGNAL_COLOURS["red"], edgecolor=SIGNAL_COLOURS["green"], lw=2,
+                             label="stop line (its light's colour)"))
     return handles
 
 
 def draw_places(fig: Any, top_in: float, rows: dict[str, list[PlottedRun]], colours: dict[str, str],
-                road: dict[str, list[np.ndarray]], windows: list[Window], layout: dict[str, Any]) -> list[Any]:
+                road: dict[str, Any], windows: list[Window], layout: dict[str, Any]) -> list[Any]:
     """The overview and one row of panels per variant of ``rows``, ``top_in`` inches below the top of
     ``fig`` (sized by :func:`places_layout`); the legend goes above the overview. Returns the axes,
     overview first."""

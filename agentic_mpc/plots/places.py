@@ -2,9 +2,11 @@
 
 A run's *places* come from its files: each stopped car (obstacles.csv), where an ambulance passes the ego (or
 where it is held up closest behind it, when it never passes), the agent's tool calls when they take effect
-(events.csv) and the ego's manoeuvres (lane changes, offsets over 1 m from the tracked lane). Places within
-``span_m`` of each other along the road are one :class:`Window`: a rectangle turned with the road around them,
-a few tens of metres long, where the panels draw the road and every vehicle's footprint at equal scales.
+(events.csv), the ego's manoeuvres (lane changes, offsets over 1 m from the tracked lane) and, on a route, the
+traffic lights it met (signals.csv: where it waited at red, else where it crossed the line; events.csv's red light
+and right of way violations). Places within ``span_m`` of each other along the road are one :class:`Window`: a
+rectangle turned with the road around them, a few tens of metres long, where the panels draw the road and every
+vehicle's footprint at equal scales.
 
 No matplotlib here: the windows are plain numbers (the tests check them without drawing).
 """
@@ -12,6 +14,7 @@ No matplotlib here: the windows are plain numbers (the tests check them without 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,13 +22,19 @@ import pandas as pd
 
 from agentic_mpc.plots.runs import PlottedRun
 
-KIND_RANK = {"stopped car": 0, "obstacle": 0, "ambulance passes": 1, "ambulance held up": 2, "tool call": 3,
-             "lane change": 4, "swerve": 5}
+KIND_RANK = {"stopped car": 0, "obstacle": 0, "ambulance passes": 1, "ambulance held up": 2, "red light": 1,
+             "right of way": 1, "tool call": 3, "waiting at a light": 3, "traffic light": 4, "lane change": 4,
+             "swerve": 5}
 """Which places win when there are more than fit in a row: obstacles first, manoeuvres last."""
 HELD_UP_M = 60.0
 """An ambulance that never passes is a place where it comes closest behind the ego, if nearer than this."""
 SWERVE_M = 1.0
 """An offset from the tracked lane above this is a manoeuvre (its peak is the place)."""
+STANDING_MPS = 0.3
+"""The ego waits at a light when slower than this (as the junction log counts it)."""
+LIGHT_KINDS = frozenset({"waiting at a light", "traffic light", "red light", "right of way"})
+JUNCTION_ACROSS_M = 24.0
+"""A window at a junction is at least this wide across the road: the crossing streets show."""
 
 
 @dataclass(frozen=True)
@@ -101,6 +110,12 @@ def find_events(run: PlottedRun) -> list[Event]:
                                -d[i] / 2 + 4.0))
     for when, label in tool_calls(run.events):
         found.append(at_time("tool call", label, when))
+    found += light_events(run, at_time)
+    if not run.events.empty and "event" in run.events:
+        names = {"red_light_violation": "red light", "right_of_way_violation": "right of way"}
+        for row in run.events[run.events["event"].isin(list(names))].itertuples():
+            label = f"{names[row.event]} violation: {_short(str(row.content))}"
+            found.append(at_time(names[row.event], label, float(row.sim_time_s)))
     if "lane_index" in tr:
         lane = tr["lane_index"].to_numpy(dtype=float)
         for i in np.flatnonzero(np.isfinite(lane[:-1]) & np.isfinite(lane[1:]) & (np.diff(lane) != 0)):
@@ -115,6 +130,43 @@ def find_events(run: PlottedRun) -> list[Event]:
             i = start + int(np.argmax(np.abs(offset[start:stop])))
             found.append(Event("swerve", f"offset {offset[i]:+.1f} m", t[i], s[i], x[i], y[i], run.name))
     return found
+
+
+def light_events(run: PlottedRun, at_time: Callable[[str, str, float], Event]) -> list[Event]:
+    """One place per traffic light the ego met (``signals.csv``): where it first stood at the light's red or
+    yellow (reaching to the stop line ahead of it), else where its centre came closest to the stop line."""
+    if run.signals.empty:
+        return []
+    tr = run.trajectory
+    t, s, v = (tr[c].to_numpy(dtype=float) for c in ("time_s", "s", "v_mps"))
+    xy = tr[["x_m", "y_m"]].to_numpy(dtype=float)
+    found = []
+    stops = run.signals.groupby("junction_id", sort=False)["stop_s_m"].first().to_numpy(dtype=float)
+    for junction_id, rows in run.signals.groupby("junction_id", sort=False):
+        line = rows[["x_m", "y_m"]].to_numpy(dtype=float)[0]
+        stop_s = float(rows["stop_s_m"].iloc[0])
+        name = _short(str(junction_id))
+        times, states = rows["time_s"].to_numpy(dtype=float), rows["state"].astype(str).to_numpy()
+        state_now = np.searchsorted(times, t, side="right") - 1  # the row in force at each step
+        stopping = np.isin(states[np.clip(state_now, 0, None)], ["red", "yellow"]) & (state_now >= 0)
+        nearest = np.all(s[:, None] >= stops[None, stops < stop_s], axis=1)  # no other light's line in between
+        waiting = np.flatnonzero(stopping & nearest & (v < STANDING_MPS) & (s < stop_s))
+        if waiting.size:
+            i = waiting[0]
+            event = at_time("waiting at a light", f"waiting at a light: {name}", float(t[i]))
+            reach = (stop_s - s[i]) / 2
+            found.append(Event(event.kind, event.label, event.t, s[i] + reach, event.x, event.y, run.name,
+                               reach + 4.0))
+        else:
+            i = int(np.argmin(np.hypot(*(xy - line).T)))
+            state = states[max(state_now[i], 0)]
+            found.append(at_time("traffic light", f"{state} light: {name}", float(t[i])))
+    return found
+
+
+def _short(junction_id: str, chars: int = 12) -> str:
+    """A junction's id as a panel title shows it (an OpenStreetMap cluster's id lists every node it joins)."""
+    return junction_id if len(junction_id) <= chars else junction_id[: chars - 1] + "…"
 
 
 @dataclass(frozen=True)
@@ -236,9 +288,10 @@ def _fit_across(window: Window, lines: list[np.ndarray], obstacles: list[np.ndar
     uv = np.vstack([window.offsets(p) for p in points if len(p)])
     inside = uv[(np.abs(uv[:, 0]) <= window.length_m / 2 + 2.0) & (np.abs(uv[:, 1]) < 25.0)]
     low, high = (inside[:, 1].min() - 2.0, inside[:, 1].max() + 2.0) if len(inside) else (-6.0, 6.0)
-    if high - low < 12.0:
+    least = JUNCTION_ACROSS_M if any(e.kind in LIGHT_KINDS for e in window.events) else 12.0
+    if high - low < least:
         middle = (low + high) / 2
-        low, high = middle - 6.0, middle + 6.0
+        low, high = middle - least / 2, middle + least / 2
     return Window(window.centre, window.heading_rad, window.length_m, (float(low), float(high)), window.s_m,
                   window.events)
 

@@ -41,18 +41,46 @@ def run_road(scenario: Mapping[str, Any]) -> RunRoad | None:
     return None
 
 
+@dataclass(frozen=True)
+class RouteEnds:
+    """A route by its ends as ``scenario.json`` writes it (``{from_edge, via, to_edge}``): what
+    :meth:`~agentic_mpc.sumo.network.RoadNetwork.road` routes through, hashable for the caches here."""
+
+    from_edge: str
+    via: tuple[str, ...]
+    to_edge: str
+
+
+def _road_key(road: Any) -> str | tuple[str, ...] | RouteEnds:
+    if isinstance(road, Mapping):
+        return RouteEnds(str(road.get("from_edge", road.get("from"))), tuple(road.get("via") or ()),
+                         str(road.get("to_edge", road.get("to"))))
+    return tuple(road) if isinstance(road, list) else road
+
+
 def sumo_road(simulation: Mapping[str, Any]) -> RunRoad:
     """A SUMO world's road from its ``simulation`` mapping (the network file read with sumolib)."""
-    road = simulation["road"]
-    return _sumo_road(simulation["net_file"], tuple(road) if isinstance(road, list) else road)
+    return _sumo_road(simulation["net_file"], _road_key(simulation["road"]))
 
 
-@lru_cache(maxsize=16)
-def _sumo_road(net_file: str, road: str | tuple[str, ...]) -> RunRoad:
+@lru_cache(maxsize=4)
+def _network(net_file: str) -> Any:
     """Cached: a batch's runs share a few networks, and reading one takes a while."""
     from agentic_mpc.sumo.network import RoadNetwork
 
-    network = RoadNetwork(net_file)
+    return RoadNetwork(net_file)
+
+
+def sumo_network_and_road(simulation: Mapping[str, Any]) -> tuple[Any, Any]:
+    """The :class:`~agentic_mpc.sumo.network.RoadNetwork` and :class:`~agentic_mpc.sumo.network.Road` of a SUMO
+    run's ``simulation`` mapping."""
+    network = _network(simulation["net_file"])
+    return network, network.road(_road_key(simulation["road"]))
+
+
+@lru_cache(maxsize=16)
+def _sumo_road(net_file: str, road: str | tuple[str, ...] | RouteEnds) -> RunRoad:
+    network = _network(net_file)
     sumo_road = network.road(road)
     lanes = {role: sumo_road.lane_paths[i] for role, i in sumo_road.lane_roles().items()}
     limit = min(network.edge(edge_id).getSpeed() for edge_id in sumo_road.edge_ids)

@@ -3,7 +3,7 @@ place along the road at every step, and the road it drove on."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -12,8 +12,11 @@ import numpy as np
 import pandas as pd
 
 from agentic_mpc.plots.road import run_road
-from agentic_mpc.run.files import EVENTS, TRAFFIC, TRAJECTORY
+from agentic_mpc.run.files import EVENTS, SIGNALS, TRAFFIC, TRAJECTORY
 from agentic_mpc.run.reader import Obstacle, RunDirectory, is_emergency, read_run
+
+NETWORK_MARGIN_M = 60.0
+"""How far around the ego's paths the figures draw the network (the panels reach a few tens of metres across)."""
 
 
 @dataclass
@@ -28,6 +31,8 @@ class PlottedRun:
     traffic: pd.DataFrame
     events: pd.DataFrame
     obstacles: list[Obstacle]
+    signals: pd.DataFrame = field(default_factory=pd.DataFrame)
+    """``signals.csv``: the traffic lights the route met (empty without)."""
 
     def size_of(self, vehicle_id: str, type_id: str, vclass: str) -> tuple[float, float]:
         """(length, width) of a traffic vehicle, as the replay finds it."""
@@ -45,6 +50,14 @@ class PlottedRun:
     def obstacle_shapes(self) -> list[tuple[Any, Any]]:
         """(discs, stopped car) of each obstacle, for :func:`~agentic_mpc.plots.drawing.draw_obstacles`."""
         return [(o.discs, o.car(self.directory.sizes)) for o in self.obstacles]
+
+    def lights_at(self, t: float) -> list[tuple[float, float, float, str]]:
+        """(x, y, heading, state) of each stop line's light as the ego saw it at time ``t`` (its last change)."""
+        if self.signals.empty:
+            return []
+        before = self.signals[self.signals["time_s"] <= t + 1e-9]
+        latest = before.groupby("junction_id", sort=False).tail(1)
+        return [(float(r.x_m), float(r.y_m), float(r.heading_rad), str(r.state)) for r in latest.itertuples()]
 
     def ego_at(self, t: float) -> tuple[float, float, float]:
         """The ego's (x, y, heading) at time ``t`` (the nearest recorded step)."""
@@ -73,5 +86,25 @@ def plotted_run(directory: Path, obstacles: list[Obstacle] | None = None, varian
     if not traffic.empty:
         traffic["emergency"] = [is_emergency(flag, vclass) for flag, vclass in zip(traffic["emergency"],
                                                                                    traffic["vclass"])]
+    signals = run.table(SIGNALS)
+    if not signals.empty:
+        signals = signals.sort_values("time_s", kind="stable").reset_index(drop=True)
     return PlottedRun(run, str(run.path), variant or str(run.scenario.get("variant", "")), trajectory, traffic,
-                      run.table(EVENTS), run.obstacles if obstacles is None else obstacles)
+                      run.table(EVENTS), run.obstacles if obstacles is None else obstacles, signals)
+
+
+def network_of(runs: list[PlottedRun], margin_m: float = NETWORK_MARGIN_M) -> Any:
+    """The SUMO network around ``runs``' paths (one road; :mod:`agentic_mpc.plots.network`), None where there is
+    none to draw beside the road (a plain world, the paper's roads) or the network file cannot be read."""
+    simulation = runs[0].directory.scenario.get("simulation") if runs else None
+    if not simulation:
+        return None
+    from agentic_mpc.plots.network import corridor, sumo_network_near
+
+    paths = [run.trajectory[["x_m", "y_m"]].to_numpy(dtype=float) for run in runs]
+    try:
+        network = sumo_network_near(simulation, corridor(paths, margin_m))
+    except (OSError, ValueError, KeyError) as error:  # the figure without the network beats no figure
+        runs[0].directory.notes.append(f"network not drawn: {error}")
+        return None
+    return network or None

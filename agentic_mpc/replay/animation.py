@@ -2,7 +2,8 @@
 
 The frames come from the replay's scene (:func:`agentic_mpc.replay.data.load_run`), drawn as the figures draw
 (:mod:`agentic_mpc.plots.drawing`): the road's lanes, lane boundaries and edges, every vehicle's footprint
-coloured by class, the stopped cars and J2's discs; then the MPPI plan where the run recorded one, the time,
+coloured by class, the stopped cars and J2's discs, on a SUMO network the streets and junctions around the road
+and the stop lines in their lights' colours; then the MPPI plan where the run recorded one, the time,
 speed and the latest caption (the passenger's message, an observation, a tool call). GIFs are written with
 Pillow; MP4 needs ffmpeg on PATH (:class:`MissingToolError` otherwise).
 """
@@ -63,7 +64,8 @@ def write_animation(directory: Path, out: Path, fps: float = FPS, view_m: float 
     from matplotlib.patches import Rectangle
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
-    from agentic_mpc.plots.drawing import draw_obstacles, draw_road, footprint
+    from agentic_mpc.plots.drawing import draw_network, draw_obstacles, draw_road, draw_stop_lines, footprint
+    from agentic_mpc.plots.network import NetworkDrawing
 
     def same(xy: Any) -> Any:  # the frames keep world coordinates
         return xy
@@ -74,6 +76,8 @@ def write_animation(directory: Path, out: Path, fps: float = FPS, view_m: float 
     box = (0.01, 0.02, 0.98, 0.86)  # a fixed layout: nothing to work out again each frame
     ax = fig.add_axes(box)
     road = scene["road"]
+    if road.get("network"):
+        draw_network(ax, NetworkDrawing.from_json(road["network"]), same)
     lines = {"centres": road.get("lanes", []), "boundaries": road.get("boundaries", []),
              "edges": [line for part in road.get("edges", []) for line in part]}
     draw_road(ax, {key: [np.asarray(line) for line in value] for key, value in lines.items()}, same, surface=False)
@@ -109,6 +113,9 @@ def write_animation(directory: Path, out: Path, fps: float = FPS, view_m: float 
         row = _at(ego, t)
         x, y, heading, speed = row[1], row[2], row[3] or 0.0, row[4] or 0.0
         moving.extend(footprint(ax, same, x, y, heading, *ego_size, "ego"))
+        lights = [_at(junction["changes"], t) for junction in scene.get("signals", [])]
+        moving.extend(draw_stop_lines(ax, same, [(c[2], c[3], c[4], c[1]) for c in lights if c and c[0] <= t],
+                                      road.get("lane_width_m", 3.5)))
         plan = _at(scene["plan"], t)
         if plan is not None and abs(plan[0] - t) < 0.5 and plan[1]:
             plan_line.set_data(*zip(*plan[1]))

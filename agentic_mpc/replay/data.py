@@ -3,9 +3,11 @@ replay page.
 
 The scene holds the ego (``trajectory.csv``), the other road users (``traffic.csv``), J2's discs
 (``obstacles.csv``), captions (``events.csv``), the road (rebuilt from ``scenario.json`` by
-:mod:`agentic_mpc.plots.road`) and, where present, ``plan.csv`` (``time_s, k, x_m, y_m[, ref_x_m, ref_y_m]``:
-the MPPI plan and J1's reference points at a stride). A run that crashed mid-write replays up to where its
-files end; the live view (:mod:`~agentic_mpc.replay.live`) builds the same scene from a running loop.
+:mod:`agentic_mpc.plots.road`; on a SUMO network also the streets and junctions around the ego's path, by
+:mod:`agentic_mpc.plots.network`), the traffic lights the route met (``signals.csv``) and, where present,
+``plan.csv`` (``time_s, k, x_m, y_m[, ref_x_m, ref_y_m]``: the MPPI plan and J1's reference points at a stride).
+A run that crashed mid-write replays up to where its files end; the live view (:mod:`~agentic_mpc.replay.live`)
+builds the same scene from a running loop.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from agentic_mpc.run.files import EVENTS, PLAN, SUMMARY, TRAFFIC, TRAJECTORY
+from agentic_mpc.run.files import EVENTS, PLAN, SIGNALS, SUMMARY, TRAFFIC, TRAJECTORY
 from agentic_mpc.run.reader import (
     Obstacle,
     RunDirectoryError,
@@ -35,6 +37,8 @@ EGO_HZ = 20.0
 CAPTION_CHARS = 400
 TRACK_COLUMNS = ("t", "x", "y", "heading", "v", "a")
 """The columns of the scene's ego track."""
+ROAD_MARGIN_M = 150.0
+"""How far around the ego's path the road and the network are drawn."""
 
 ReplayInputError = RunDirectoryError
 """A directory that is not a run, or a run file that cannot be read (the reader's error)."""
@@ -61,8 +65,12 @@ def _clip(coordinates: Any, box: tuple[float, float, float, float]) -> list[list
     return [_simplify(list(p.coords)) for p in parts if not p.is_empty and len(p.coords) > 1]
 
 
-def road_geometry(scenario: Mapping[str, Any], box: tuple[float, float, float, float]) -> dict[str, Any]:
-    """Lane centre lines, lane boundaries and road edges near the run (inside ``box``) as polylines."""
+def road_geometry(scenario: Mapping[str, Any], box: tuple[float, float, float, float],
+                  region: Any = None) -> dict[str, Any]:
+    """Lane centre lines, lane boundaries and road edges near the run (inside ``box``) as polylines; on a SUMO
+    network also ``network`` (:meth:`~agentic_mpc.plots.network.NetworkDrawing.to_json`: the other streets'
+    lanes, their dividers and the junctions inside ``region``, a shapely geometry; default ``box``), where
+    there is any beside the road."""
     from agentic_mpc.plots.road import run_road
 
     road = run_road(scenario)
@@ -74,9 +82,37 @@ def road_geometry(scenario: Mapping[str, Any], box: tuple[float, float, float, f
     def parts(lines: list[Any]) -> list[list[list[float]]]:
         return [part for line in lines for part in _clip(line, box)]
 
-    return {"lanes": parts([lane.coordinates for lane in lanes]), "boundaries": parts(boundaries),
-            "edges": [_clip(edge.coordinates, box) for edge in road.edges],
-            "lane_width_m": round(sum(widths) / len(widths), 2)}
+    geometry = {"lanes": parts([lane.coordinates for lane in lanes]), "boundaries": parts(boundaries),
+                "edges": [_clip(edge.coordinates, box) for edge in road.edges],
+                "lane_width_m": round(sum(widths) / len(widths), 2)}
+    if scenario.get("simulation"):
+        import shapely
+
+        from agentic_mpc.plots.network import sumo_network_near
+
+        network = sumo_network_near(scenario["simulation"], region if region is not None else shapely.box(*box))
+        if network:
+            geometry["network"] = network.to_json()
+    return geometry
+
+
+def signal_change(row: Mapping[str, Any]) -> list[Any]:
+    """One ``signals.csv`` row as the page keeps it: [t, state, x, y, heading]."""
+    return [rounded(number(row.get("time_s")), 3), str(row.get("state", "")), rounded(number(row.get("x_m"))),
+            rounded(number(row.get("y_m"))), rounded(number(row.get("heading_rad")), 3)]
+
+
+def signal_items(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """``signals.csv`` per junction: its id and its changes [t, state, x, y, heading] in time order."""
+    junctions: dict[str, dict[str, Any]] = {}
+    for r in rows:
+        if not math.isfinite(number(r.get("time_s"))):
+            continue
+        junction_id = str(r.get("junction_id", ""))
+        junctions.setdefault(junction_id, {"id": junction_id, "changes": []})["changes"].append(signal_change(r))
+    for junction in junctions.values():
+        junction["changes"].sort(key=lambda change: change[0])
+    return list(junctions.values())
 
 
 def _ego(rows: list[dict[str, str]]) -> dict[str, Any]:
@@ -239,12 +275,15 @@ def load_run(directory: Path) -> dict[str, Any]:
     ego = _ego(trajectory)
     xs = [p[1] for p in ego["track"] if p[1] is not None]
     ys = [p[2] for p in ego["track"] if p[2] is not None]
-    margin = 150.0
+    margin = ROAD_MARGIN_M
     box = (min(xs) - margin, min(ys) - margin, max(xs) + margin, max(ys) + margin)
     road: dict[str, Any] = {}
     if scenario:
         try:
-            road = road_geometry(scenario, box)
+            from agentic_mpc.plots.network import corridor
+
+            path = [[p[1], p[2]] for p in ego["track"] if p[1] is not None and p[2] is not None]
+            road = road_geometry(scenario, box, corridor([path], margin))
         except Exception as error:  # the scene without a road beats no scene
             logger.warning("replay of %s: no road (%s)", run.path, error)
             run.notes.append(f"road not drawn: {type(error).__name__}: {error}")
@@ -256,5 +295,5 @@ def load_run(directory: Path) -> dict[str, Any]:
         scenario, sizes, run.title, summary=summary[0] if summary else {}, road=road, ego=ego,
         traffic={"vehicles": list(traffic.vehicles.values()), "frames": traffic.frames},
         obstacles=obstacle_items(run.obstacles, sizes), captions=captions_of(run.rows(EVENTS)),
-        plan=_plan(run.rows(PLAN)), notes=run.notes,
+        plan=_plan(run.rows(PLAN)), signals=signal_items(run.rows(SIGNALS)), notes=run.notes,
     )

@@ -2,7 +2,8 @@
 script and style inlined (no server, no network, no external fonts).
 
 The page exposes ``window.replayState`` (time, ego pose, ids of the drawn vehicles, visible captions, the
-attached specification) and ``window.replaySeek(t)`` for tests and scripting.
+attached specification, the traffic lights shown: ``signals``) and ``window.replaySeek(t)`` for tests and
+scripting.
 """
 
 from __future__ import annotations
@@ -66,6 +67,7 @@ PAGE = """<!DOCTYPE html>
       <span><i style="background:#374151"></i>stopped car</span>
       <span><i style="background:rgba(249,115,22,0.3);border-color:#f97316"></i>J2 disc</span>
       <span><i style="background:#d946ef"></i>MPPI plan</span>
+      <span><i style="background:linear-gradient(90deg,#dc2626,#facc15,#22c55e)"></i>stop line, its light</span>
     </div>
     <h2>Messages and tool calls</h2>
     <ol id="log"></ol>

@@ -6,7 +6,8 @@
   const $ = (id) => document.getElementById(id);
   const D = JSON.parse(document.getElementById("replay-data").textContent);
   const counts = {track: D.ego.track.length, frames: D.traffic.frames.length, vehicles: D.traffic.vehicles.length,
-    specs: D.ego.specs.length, captions: D.captions.length};
+    specs: D.ego.specs.length, captions: D.captions.length,
+    signals: (D.signals || []).reduce((n, j) => n + j.changes.length, 0)};
   const connection = $("connection");
   window.liveState = {chunks: 0, sent: 0, ended: false};
   const source = new EventSource("events?" + new URLSearchParams(counts));

@@ -24,6 +24,8 @@ from agentic_mpc.replay.data import (
     road_geometry,
     rounded,
     scene,
+    signal_change,
+    signal_items,
 )
 from agentic_mpc.run.reader import Obstacle, number, run_title, vehicle_sizes
 
@@ -69,7 +71,7 @@ class LiveScene:
             return {"live": True, **scene(self._scenario, self._sizes, run_title(self._scenario), summary={},
                                           road=self._road_near_ego(), ego=ego, traffic=traffic,
                                           obstacles=self._obstacles(), captions=list(self._captions), plan=[],
-                                          notes=list(self._notes))}
+                                          signals=signal_items(self._signal_rows(0)), notes=list(self._notes))}
 
     def chunk(self, since: dict[str, int]) -> tuple[dict[str, Any], dict[str, int]]:
         """What a page that has seen ``since`` (the counts of a previous chunk) has not: new track points,
@@ -79,11 +81,14 @@ class LiveScene:
             frames = self._traffic.frames
             counts = {"track": len(self._track), "frames": len(frames), "vehicles": len(self._traffic.vehicles),
                       "specs": len(self._specs), "captions": len(self._captions)}
+            signals = self._signal_rows(since.get("signals", 0))
+            counts["signals"] = since.get("signals", 0) + len(signals)
             vehicles = list(self._traffic.vehicles.values())
             new = {
                 "track": self._track[since.get("track", 0):], "frames": frames[since.get("frames", 0):],
                 "vehicles": vehicles[since.get("vehicles", 0):], "specs": self._specs[since.get("specs", 0):],
                 "captions": self._captions[since.get("captions", 0):],
+                "signals": [[str(row["junction_id"]), *signal_change(row)] for row in signals],
             }
         return new, counts
 
@@ -92,7 +97,8 @@ class LiveScene:
         """The counts of what :meth:`initial` gave (to ask :meth:`chunk` for the rest)."""
         return {"track": len(scene["ego"]["track"]), "frames": len(scene["traffic"]["frames"]),
                 "vehicles": len(scene["traffic"]["vehicles"]), "specs": len(scene["ego"]["specs"]),
-                "captions": len(scene["captions"])}
+                "captions": len(scene["captions"]),
+                "signals": sum(len(junction["changes"]) for junction in scene.get("signals", []))}
 
     # ------------------------------------------------------------------ reading the loop
     def _take(self, name: str, rows: list[Any]) -> list[Any]:
@@ -126,6 +132,11 @@ class LiveScene:
         self._track.append([rounded(t, 3), rounded(float(row["x_m"])), rounded(float(row["y_m"])),
                             rounded(float(row["phi_rad"]), 3), rounded(v), rounded(accel)])
         self._last_ego_t = t
+
+    def _signal_rows(self, start: int) -> list[dict[str, Any]]:
+        """The rows of ``signals.csv`` the recorder has kept so far, from the ``start``-th on."""
+        signals = getattr(self._loop.recorder, "signals", None)
+        return list(signals.rows[start:]) if signals is not None else []
 
     def _obstacles(self) -> list[dict[str, Any]]:
         tracks = self._loop.recorder.metrics.obstacles

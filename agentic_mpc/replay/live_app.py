@@ -73,7 +73,7 @@ class LiveView:
             return refused
         try:
             since = {key: max(0, int(request.query_params.get(key, "0")))
-                     for key in ("track", "frames", "vehicles", "specs", "captions")}
+                     for key in ("track", "frames", "vehicles", "specs", "captions", "signals")}
         except ValueError:
             return JSONResponse({"error": "the counts in the query must be whole numbers"}, status_code=400)
         if self.streams >= MAX_STREAMS:

@@ -58,6 +58,19 @@
     const specs = D.ego.specs;
     return specs[Math.max(0, lowerIndex(specs, time, (s) => s[0]))];
   }
+  const SIGNAL_COLOURS = {red: "#dc2626", yellow: "#facc15", green: "#22c55e", off: "#9ca3af"};
+  D.signals = D.signals || [];
+  function signalsAt(time) {  // [{id, state, x, y, heading}] of the lights the ego sees at this time
+    const shown = [];
+    for (const j of D.signals) {
+      const i = lowerIndex(j.changes, time, (c) => c[0]);
+      if (i >= 0 && j.changes[i][1] in SIGNAL_COLOURS) {
+        const c = j.changes[i];
+        shown.push({id: j.id, state: c[1], x: c[2], y: c[3], heading: c[4]});
+      }
+    }
+    return shown;
+  }
   function captionsAt(time) {
     return D.captions.filter((c) => c.t <= time + 1e-9 && time < c.t + HOLD_S).slice(-MAX_CAPTIONS);
   }
@@ -75,6 +88,41 @@
     ctx.beginPath();
     points.forEach((p, k) => { const s = toScreen(p[0], p[1]); if (k) ctx.lineTo(s[0], s[1]); else ctx.moveTo(s[0], s[1]); });
     ctx.stroke();
+  }
+  function inView(line, ego, w, h, px) {  // whether a polyline's bounding box (worked out once) is on screen
+    if (!line.box) {
+      const xs = line.map((p) => p[0]), ys = line.map((p) => p[1]);
+      line.box = [Math.min(...xs), Math.min(...ys), Math.max(...xs), Math.max(...ys)];
+    }
+    const b = line.box, mx = w / 2 / px + 10, my = h / 2 / px + 10;
+    return b[2] > ego.x - mx && b[0] < ego.x + mx && b[3] > ego.y - my && b[1] < ego.y + my;
+  }
+  function drawNetwork(net, ego, w, h, px, toScreen) {  // the streets and junctions around the route
+    const shown = (line) => inView(line, ego, w, h, px);
+    ctx.strokeStyle = "#4b5563"; ctx.fillStyle = "#4b5563"; ctx.lineCap = "butt";
+    for (const [width, lines] of net.lanes) {
+      ctx.lineWidth = width * px * 1.02;
+      lines.filter(shown).forEach((line) => polyline(line, toScreen));
+    }
+    for (const ring of net.junctions.filter(shown)) {
+      ctx.beginPath();
+      ring.forEach((p, k) => { const s = toScreen(p[0], p[1]); if (k) ctx.lineTo(s[0], s[1]); else ctx.moveTo(s[0], s[1]); });
+      ctx.closePath(); ctx.fill(); ctx.lineWidth = 1; ctx.stroke();
+    }
+    ctx.lineCap = "round";
+    ctx.strokeStyle = "rgba(255,255,255,0.7)"; ctx.lineWidth = Math.max(1, 0.12 * px);
+    ctx.setLineDash([3 * px, 6 * px]);
+    net.dividers.filter(shown).forEach((line) => polyline(line, toScreen));
+    ctx.setLineDash([]);
+  }
+  function stopLine(s, heading, width, colour, px) {  // a bar across the ego's lane at a traffic light
+    ctx.save();
+    ctx.translate(s[0], s[1]);
+    ctx.rotate(-heading);
+    ctx.fillStyle = colour; ctx.strokeStyle = "#111827"; ctx.lineWidth = Math.max(1, 0.06 * px);
+    ctx.fillRect(-0.4 * px, -width * px / 2, 0.8 * px, width * px);
+    ctx.strokeRect(-0.4 * px, -width * px / 2, 0.8 * px, width * px);
+    ctx.restore();
   }
   function footprint(s, heading, L, W, fill, outline, px) {
     ctx.save();
@@ -98,6 +146,7 @@
     ctx.fillRect(0, 0, w, h);
     const road = D.road;
     ctx.lineCap = "round"; ctx.lineJoin = "round";
+    if (road.network) drawNetwork(road.network, ego, w, h, px, toScreen);
     if (road.lanes) {
       ctx.strokeStyle = "#4b5563"; ctx.lineWidth = road.lane_width_m * px * 1.02;
       road.lanes.forEach((line) => polyline(line, toScreen));
@@ -110,6 +159,10 @@
       ctx.setLineDash([1 * px, 2 * px]);
       road.lanes.forEach((line) => polyline(line, toScreen));
       ctx.setLineDash([]);
+    }
+    const signals = signalsAt(t);
+    for (const light of signals) {
+      stopLine(toScreen(light.x, light.y), light.heading, road.lane_width_m || 3.2, SIGNAL_COLOURS[light.state], px);
     }
     const drawn = ["ego"];
     for (const o of D.obstacles) {
@@ -154,7 +207,7 @@
     ctx.fillStyle = "#fff"; ctx.font = `${Math.round(12 * ratio)}px sans-serif`;
     ctx.fillRect(16 * ratio, 22 * ratio, 10 * px, 3 * ratio);
     ctx.fillText(`10 m    t = ${t.toFixed(2)} s    v = ${ego.v.toFixed(1)} m/s`, 20 * ratio + 10 * px, 26 * ratio);
-    return {ego, drawn};
+    return {ego, drawn, signals: signals.map((light) => ({id: light.id, state: light.state}))};
   }
 
   // --- side panel -----------------------------------------------------------------------------------
@@ -202,7 +255,7 @@
       window.replayState = {t, t0: T0, t1: T1, playing, live: Boolean(D.live), following, drawn: [], captions: [], spec: ""};
       return;
     }
-    const {ego, drawn} = draw();
+    const {ego, drawn, signals} = draw();
     const shown = captionsAt(t);
     const box = $("captions");
     box.replaceChildren(...shown.map((c) => {
@@ -216,7 +269,7 @@
     $("time").textContent = D.live && following ? `${t.toFixed(2)} s (live)` : `${t.toFixed(2)} / ${T1.toFixed(2)} s`;
     updatePanel(ego);
     window.replayState = {t, t0: T0, t1: T1, playing, live: Boolean(D.live), following, speed: Number(speedSelect.value), scale,
-      ego: {x: ego.x, y: ego.y, heading: ego.heading, v: ego.v, a: ego.a}, drawn,
+      ego: {x: ego.x, y: ego.y, heading: ego.heading, v: ego.v, a: ego.a}, drawn, signals,
       captions: shown.map((c) => c.text), spec: specAt(t) ? specAt(t)[2] : ""};
   }
   function seek(time) {
@@ -255,6 +308,11 @@
   function append(chunk) {  // a live page: what the run recorded since the last chunk (agentic_mpc/replay/live.py)
     track.push(...chunk.track); frames.push(...chunk.frames); vehicles.push(...chunk.vehicles);
     D.ego.specs.push(...chunk.specs);
+    for (const [id, ...change] of chunk.signals || []) {  // [junction id, t, state, x, y, heading]
+      let junction = D.signals.find((j) => j.id === id);
+      if (!junction) { junction = {id, changes: []}; D.signals.push(junction); }
+      junction.changes.push(change);
+    }
     const before = D.captions.length;
     D.captions.push(...chunk.captions);
     buildLog(before);

@@ -16,6 +16,8 @@ OBSTACLES = "obstacles.csv"
 """J2's discs of each static obstacle."""
 OBSTACLE_PASSES = "obstacle_passes.csv"
 """One row per static obstacle: side, clearance, when passed."""
+SIGNALS = "signals.csv"
+"""The traffic lights the ego's route meets: a row each time one changes (only runs that met a light have it)."""
 SUMMARY = "summary.csv"
 """One row: the run's identity and its metrics (in a batch, the batch's record of the run)."""
 SCENARIO = "scenario.json"
@@ -33,6 +35,9 @@ made it (``name/version; session=ID; address=IP``). ``tool_call`` rows are the e
 PLAN_COLUMNS = ("time_s", "k", "x_m", "y_m")
 """``k`` = 1..H along the horizon; a plan may add ``ref_x_m, ref_y_m`` (J1's reference points)."""
 OBSTACLE_COLUMNS = ("id", "x_m", "y_m", "radius_m")
+SIGNAL_COLUMNS = ("time_s", "junction_id", "state", "stop_s_m", "x_m", "y_m", "heading_rad")
+"""``state``: green, yellow, red, off, or unobserved (the junction is no longer ahead); ``x_m, y_m, heading_rad``:
+the stop line of the ego's movement on its lane (:mod:`agentic_mpc.run.signal_log`)."""
 OBSTACLE_PASS_COLUMNS = ("id", "lane_index", "road_s_m", "side", "min_clearance_m", "passed_at_s")
 EGO_COLUMNS = ("time_s", "x_m", "y_m", "phi_rad", "v_mps")
 """The columns of ``trajectory.csv`` every reader needs (the recorder writes many more)."""
@@ -45,5 +50,6 @@ REQUIRED = {
     EVENTS: ("event", "sim_time_s"),
     OBSTACLES: OBSTACLE_COLUMNS,
     PLAN: PLAN_COLUMNS,
+    SIGNALS: SIGNAL_COLUMNS,
 }
 """The columns without which a file is not the run's: the reader refuses it."""

@@ -1,9 +1,10 @@
 """What a run records, and the files it writes (names and columns in :mod:`agentic_mpc.run.files`):
 ``trajectory.csv`` (one row per control step, with the motion columns of :mod:`agentic_mpc.run.comfort`),
-``traffic.csv`` (the other road users every few steps), ``plan.csv`` (the controller's optimal predicted
-trajectory every few steps, when asked for), ``events.csv`` (messages, tool calls, specification changes,
-collisions), ``obstacles.csv`` (J2's discs), ``obstacle_passes.csv`` (one row per obstacle: side, clearance,
-when passed) and ``summary.csv`` (the metrics of :mod:`agentic_mpc.run.metrics` and
+``traffic.csv`` (the other road users every few steps), ``signals.csv`` (the traffic lights the route meets, a
+row when one changes: :mod:`agentic_mpc.run.signal_log`; only a run that met a light has it), ``plan.csv`` (the
+controller's optimal predicted trajectory every few steps, when asked for), ``events.csv`` (messages, tool calls,
+specification changes, collisions), ``obstacles.csv`` (J2's discs), ``obstacle_passes.csv`` (one row per
+obstacle: side, clearance, when passed) and ``summary.csv`` (the metrics of :mod:`agentic_mpc.run.metrics` and
 :mod:`agentic_mpc.run.comfort`). :mod:`agentic_mpc.run.reader` reads them back.
 
 A ``collision`` row in ``events.csv`` is one contact episode of the ego (not every step in contact): ``source``
@@ -23,6 +24,7 @@ from agentic_mpc.run import files
 from agentic_mpc.run.comfort import add_motion_columns, comfort_summary
 from agentic_mpc.run.junction_log import JunctionLog
 from agentic_mpc.run.metrics import MetricsRecorder, ObstacleTrack, obstacle_rows, summarise
+from agentic_mpc.run.signal_log import SignalLog
 from agentic_mpc.run.stuck import StuckTracker
 from agentic_mpc.world.base import World
 from agentic_mpc.world.collisions import CollisionEpisode, ReportWithoutContact
@@ -66,6 +68,7 @@ class RunRecorder:
         self.plan_rows: list[tuple[float, int, float, float]] = []
         self.metrics = MetricsRecorder(stuck=StuckTracker(lane_count=len(world.lanes().lanes)),
                                        junctions=JunctionLog(getattr(world, "ego_length_m", 5.0)))
+        self.signals = SignalLog(world.lanes)
         circles = world.obstacle_circles()
         for obstacle in world.observation.obstacles:
             own = tuple(c for c in circles if c.label == obstacle.id)
@@ -122,6 +125,7 @@ class RunRecorder:
             row["tracked_lane"], row["v_ref_mps"], row["tracked_lane_offset_m"] = "", float("nan"), float("nan")
         self.trajectory_rows.append(row)
         self.metrics.observe(after, self.world.lateral_offset_m, row["v_ref_mps"])
+        self.signals.observe(after)
         for emergency in after.emergency_vehicles:
             loss = self.world.time_loss_s(emergency.vehicle.id)
             if loss is not None:
@@ -161,6 +165,9 @@ class RunRecorder:
         traffic.to_csv(out_dir / files.TRAFFIC, index=False)
         if self.plan_rows:
             pd.DataFrame(self.plan_rows, columns=list(files.PLAN_COLUMNS)).to_csv(out_dir / files.PLAN, index=False)
+        if self.signals.rows:
+            pd.DataFrame(self.signals.rows, columns=list(files.SIGNAL_COLUMNS)).to_csv(out_dir / files.SIGNALS,
+                                                                                        index=False)
         self.metrics.stuck.finish()
         collisions = [collision_event(e) for e in self.metrics.collisions.episodes] + self.metrics.stuck.events()
         collisions += [report_without_contact_event(r) for r in self.metrics.collisions.reports_without_contact]
