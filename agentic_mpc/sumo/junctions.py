@@ -85,6 +85,8 @@ class RouteJunctions:
         self._route_edges = frozenset(road.edge_ids)
         self.tls_ids = tuple(sorted({j.tls_id for j in junctions if j.tls_id}))
         self._feeders = {lane: self._feeding(lane) for j in junctions for lane in j.internal_lanes}
+        self._ahead: tuple[JunctionAhead, ...] = ()
+        self._told_stopping: bool | None = None  # what SUMO was last told (None: nothing yet)
 
     def _feeding(self, internal_lane: str) -> tuple[tuple[str, int, str, str, tuple[tuple[str, float, float], ...]], ...]:
         """Per foe of ``internal_lane``: (foe internal lane, its link index, its tls, its state in the network, the
@@ -109,11 +111,24 @@ class RouteJunctions:
         """The junctions the ego's front has not left, within :data:`LOOK_AHEAD_M`, nearest first."""
         upcoming = [j for j in self.junctions if j.exit_s_m > front_s_m and j.stop_s_m - front_s_m < LOOK_AHEAD_M]
         if not upcoming:
+            self._ahead = ()
             return ()
         states = self.bridge.signal_states(tuple({j.tls_id for j in upcoming if j.tls_id}))
-        return tuple(self._ahead(j, front_s_m, states) for j in upcoming[:2])
+        self._ahead = tuple(self._ahead_of(j, front_s_m, states) for j in upcoming[:2])
+        return self._ahead
 
-    def _ahead(self, junction: RouteJunction, front_s_m: float, states: dict[str, str]) -> JunctionAhead:
+    def tell_light_stop(self, ego_id: str, stop_line_s_m: float | None) -> None:
+        """Tell SUMO whether the ego stops at a light: the junction rules' stop line (None: no stop) is that of a
+        junction ahead whose light is red or yellow. SUMO's junction logic otherwise takes the externally driven
+        ego to pass every light, and its drivers wait for an ego that stands at its red light
+        (:data:`~agentic_mpc.sumo.bridge.vehicles.STOPPING_AT_LIGHT_SPEED_MODE`)."""
+        stopping = stop_line_s_m is not None and any(
+            j.stop_s_m == stop_line_s_m and j.signal in ("red", "yellow") for j in self._ahead)
+        if stopping != self._told_stopping:
+            self.bridge.stop_external_at_light(ego_id, stopping)
+            self._told_stopping = stopping
+
+    def _ahead_of(self, junction: RouteJunction, front_s_m: float, states: dict[str, str]) -> JunctionAhead:
         char = states[junction.tls_id][junction.link_index] if junction.tls_id else junction.state
         must_yield = char in MINOR_STATES
         distance = junction.stop_s_m - front_s_m

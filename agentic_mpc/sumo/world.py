@@ -271,6 +271,8 @@ class SumoWorld(RoadReadings, WorldReadings):
 
     def surroundings(self, horizon: int, tracked_path: LanePath | None, plan: TacticalPlan | None = None
                      ) -> Surroundings:
+        if plan is not None and self.junctions is not None:  # SUMO's drivers must know the ego stops at a light
+            self.junctions.tell_light_stop(self.config.ego_id, plan.stop_line_s_m)
         return self._builder(horizon).build(self.observation, self._state, self.lane_index_of(tracked_path), plan)
 
     @property

@@ -2,8 +2,10 @@
 
 - ``speed_zones``: the lanes of the route slower than the road's limit (a turn's internal lanes, a slower edge)
   cap J1's reference speed, braking for them at ``speed_zones.decel_mps2`` ahead of where they begin.
-- ``traffic_lights``: red, or yellow when the ego can still stop at ``traffic_lights.stop_decel_mps2``: stop at
-  the line. Green, or a yellow it cannot stop for: go.
+- ``traffic_lights``: red, or yellow when the ego can still stop at ``traffic_lights.yellow_stop_decel_mps2``:
+  stop at the line. Green, or a yellow it cannot stop for: go. A yellow it could stop for when it came holds it
+  until the light changes: judged anew each step, the stop let go as soon as the ego, still braking gently, needed
+  a little more than that rate, and it went through on yellow (``junction_osm_route`` seed 308, t = 236 s).
 - ``right_of_way``: at a stop sign stop at the line first; where the ego's movement gives way (a minor road, a
   left turn on green, an all-way stop) it goes only when no vehicle with priority arrives within
   ``right_of_way.gap_s`` and that gap has stayed open ``right_of_way.gap_held_s``. Once its front is past the
@@ -54,11 +56,18 @@ class JunctionRules:
         self.speed_limit_mps = speed_limit_mps
         self._stopped_at: set[str] = set()
         self._gap_since: dict[str, float] = {}  # per junction where the ego gives way: since when the gap is open
+        self._stops_for_yellow: dict[str, bool] = {}  # per junction with a yellow light: stop decided at its onset
 
     def decide(self, observation: Observation, ego_length_m: float) -> JunctionDecision:
         front_s = observation.ego.road_s_m + 0.5 * ego_length_m
         speed = observation.ego.speed_mps
         cap, reason = self._zone_cap(front_s)
+        for junction in observation.junctions_ahead:  # a yellow is judged when it comes (so is a violation)
+            if junction.signal != "yellow":
+                self._stops_for_yellow.pop(junction.junction_id, None)
+            elif junction.junction_id not in self._stops_for_yellow:
+                self._stops_for_yellow[junction.junction_id] = junction.distance_m > 0.0 and self._stoppable(
+                    junction, speed)
         for junction in observation.junctions_ahead:
             why = self._stop_for(junction, speed, observation.time_s)
             if why is None:
@@ -79,8 +88,7 @@ class JunctionRules:
         if config.uses("traffic_lights") and junction.signal in ("red", "yellow"):
             if junction.signal == "red":
                 return "red light"
-            needed = speed_mps * speed_mps / (2.0 * max(junction.distance_m, 0.1))
-            if needed <= config.traffic_lights.yellow_stop_decel_mps2:
+            if self._stops_for_yellow.get(junction.junction_id) or self._stoppable(junction, speed_mps):
                 return "yellow light"
         if not config.uses("right_of_way") or not junction.must_yield:
             return None
@@ -97,6 +105,11 @@ class JunctionRules:
         if time_s - since < config.right_of_way.gap_held_s and junction.distance_m < GAP_CHECKED_WITHIN_M:
             return "giving way (checking the gap)"
         return None
+
+    def _stoppable(self, junction: JunctionAhead, speed_mps: float) -> bool:
+        """Whether the ego stops at the junction's line braking at ``traffic_lights.yellow_stop_decel_mps2``."""
+        needed = speed_mps * speed_mps / (2.0 * max(junction.distance_m, 0.1))
+        return needed <= self.config.traffic_lights.yellow_stop_decel_mps2
 
     def _zone_cap(self, front_s_m: float) -> tuple[float | None, str | None]:
         """The speed the route's slower zones allow here: their limit inside, braking for them ahead."""

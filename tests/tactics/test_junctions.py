@@ -47,9 +47,19 @@ def test_red_stops_the_ego_at_the_line_and_green_lets_it_go():
 
 
 def test_yellow_stops_the_ego_only_where_a_comfortable_stop_is_possible():
+    assert decide(JunctionRules(TacticsConfig()), 12.0, junction(30.0, "yellow")).stop_line_s_m is not None  # 2.4
+    assert decide(JunctionRules(TacticsConfig()), 12.0, junction(20.0, "yellow")).stop_line_s_m is None  # 3.6: go
+
+
+def test_a_yellow_the_ego_could_stop_for_when_it_came_holds_it_until_the_light_changes():
+    """Judged anew each step, the stop let go once the ego, braking gently at first, needed a little more than the
+    rate; it then went through on yellow (junction_osm_route seed 308)."""
     rules = JunctionRules(TacticsConfig())
-    assert decide(rules, 12.0, junction(30.0, "yellow")).stop_line_s_m is not None  # 144 / 60 = 2.4 m/s^2
-    assert decide(rules, 12.0, junction(20.0, "yellow")).stop_line_s_m is None  # would need 3.6 m/s^2: go
+    assert decide(rules, 12.0, junction(30.0, "yellow")).stop_line_s_m is not None  # 2.4 m/s^2 when it came
+    assert decide(rules, 11.5, junction(20.0, "yellow")).reason.startswith("yellow light")  # 3.3 now: still stops
+    assert decide(rules, 11.0, junction(15.0, "green")).stop_line_s_m is None  # green again: go
+    assert decide(rules, 11.0, junction(15.0, "yellow")).stop_line_s_m is None  # a new yellow, 4.0 needed: go
+    assert decide(rules, 10.0, junction(14.0, "yellow")).stop_line_s_m is None  # that one is still judged go
 
 
 def test_a_stop_sign_holds_the_ego_until_it_has_stood_at_the_line_then_gaps_decide():

@@ -13,6 +13,18 @@ from agentic_mpc.sumo.options import error_message as _message
 from agentic_mpc.sumo.records import SumoError, centre_to_front
 
 _RESIZE_M = 0.05  # the outline is resized in SUMO when its length or width changes by more than this
+EXTERNAL_SPEED_MODE = 0
+"""SUMO's speed mode for the external vehicle: none of its own checks (our model drives it). SUMO's junction logic
+then takes it to pass every link ahead, red lights included (``MSVehicle::ignoreRed`` is true without bit 4)."""
+STOPPING_AT_LIGHT_SPEED_MODE = 16
+"""... and while it stops at a red or yellow light (:meth:`VehicleCommands.stop_external_at_light`): bit 4, "brake
+hard to avoid passing a red light", so that SUMO registers it at the links behind that light as one that will not
+pass. Registered as passing, an ego standing at its red light held the oncoming left turners that had gone into an
+OpenStreetMap cluster on their green: they waited inside it, at their crossing with the ego's movement, and were
+still there, in its way, when its light turned green; the ego stood behind them and they waited for it, for good
+(``junction_osm_route`` seed 303, t = 300 s: osm19.2 had waited there 26 s; docs/networks.md). Only while it stops:
+SUMO decides a yellow with the vType's decel, the ego with its own rule, and an ego going through a yellow that
+SUMO took to stop would have the left turners turn in front of it."""
 
 
 class VehicleCommands(BridgeState):
@@ -114,7 +126,7 @@ class VehicleCommands(BridgeState):
         """
         self.add_vehicle(vehicle_id, route_id, type_id, lane_index=lane_index, pos_m=pos_m, speed_mps=speed_mps)
         try:
-            libsumo.vehicle.setSpeedMode(vehicle_id, 0)
+            libsumo.vehicle.setSpeedMode(vehicle_id, EXTERNAL_SPEED_MODE)
             libsumo.vehicle.setLaneChangeMode(vehicle_id, 0)
         except _LIBSUMO_ERRORS as error:
             raise SumoError(f"cannot configure the external vehicle {vehicle_id!r}: {_message(error)}") from error
@@ -160,6 +172,14 @@ class VehicleCommands(BridgeState):
             raise SumoError(f"cannot give {vehicle_id!r} the route {edges}: {_message(error)}") from error
 
     # --- driving the external vehicle ------------------------------------------------------------------
+    def stop_external_at_light(self, vehicle_id: str, stopping: bool) -> None:
+        """Tell SUMO's junction logic whether our vehicle stops at the red or yellow light ahead (it then registers
+        it at the links behind the light as not passing: :data:`STOPPING_AT_LIGHT_SPEED_MODE`) or drives on."""
+        try:
+            libsumo.vehicle.setSpeedMode(vehicle_id, STOPPING_AT_LIGHT_SPEED_MODE if stopping else EXTERNAL_SPEED_MODE)
+        except _LIBSUMO_ERRORS as error:
+            raise self._fail(f"telling SUMO whether {vehicle_id!r} stops at a light", error) from error
+
     def move_external(
         self, vehicle_id: str, x_m: float, y_m: float, phi_rad: float, speed_mps: float | None = None,
         accel_mps2: float | None = None,
