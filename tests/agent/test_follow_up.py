@@ -72,15 +72,15 @@ def test_confirmation_model_keeps_the_models_own_reply(server):
     assert len(llm.requests) == 2 and report.text == "Slowing to 12 m/s."
 
 
-def test_where_a_passage_was_retrieved_the_model_replies_citing_the_rule_it_followed(server):
+def test_where_a_passage_was_retrieved_the_reply_cites_it(server):
     from agentic_mpc.knowledge.server import build_knowledge_server
     from agentic_mpc.knowledge.store import KnowledgeBase
 
-    script = [text('{"name": "set_reference_speed", "arguments": {"v_ref": 100, "unit": "km/h"}}'),
-              text('{"reply": "Set to 100 km/h, the expressway limit.", "cite": "jp-traffic-rules"}')]
+    script = [text('{"name": "set_reference_speed", "arguments": {"v_ref": 100, "unit": "km/h"}}')]
     backend = model_at_url("", tool_mode="json_schema")
     with ScriptedLLM(script) as llm:
         backend.config = backend.config.model_copy(update={"base_url": llm.base_url})
         with Agent(backend, server, other_servers={"knowledge": build_knowledge_server(KnowledgeBase())}) as agent:
             report = agent.deliver("Drive at the speed limit of a Japanese expressway.").result(30)
-    assert len(llm.requests) == 2 and report.text.endswith("[jp-traffic-rules]")
+    assert len(llm.requests) == 1  # the passage was in the call's context: the reply names it
+    assert report.text.startswith("Done: set_reference_speed(v_ref=25") and report.text.endswith("[jp-traffic-rules]")

@@ -61,10 +61,10 @@ class ChatSettings(AgentRunSettings):
                             "(agent/toolset.py)")
     confirmation: Literal["template", "model"] = Field(
         "template", description="compact prompt, after calls that all succeeded: template: when they made every "
-                                "kind of change the message asks for (and no passage was retrieved for it, which "
-                                "the model's reply cites), the reply is written from their results without asking "
-                                "the model, else the model is told what is left; model: the model answers the "
-                                "results (agent/backends/follow_up.py)")
+                                "kind of change the message asks for, the reply is written from their results "
+                                "(citing the passages retrieved for the message) without asking the model, else "
+                                "the model is told what is left; model: the model answers the results "
+                                "(agent/backends/follow_up.py)")
 
     def agent_config(self, **runtime: Any) -> AgentConfig:
         runtime.setdefault("backend_timeout_s", self.timeout_s + 5.0)  # the backend's own timeout runs out first
@@ -220,9 +220,8 @@ class ChatBackend:
         return self.compact and self.config.confirmation == "template"
 
     async def complete(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> BackendReply:
-        if self.follows_up and not retrieved_ids(history) and left_undone(history) == {}:
-            # all done: the results say it; where passages were retrieved, the model replies citing the rule
-            return BackendReply(template_reply(history))
+        if self.follows_up and left_undone(history) == {}:  # all done: the results say it, with the passages cited
+            return BackendReply(template_reply(history, retrieved_ids(history)))
         data = await self.send(self.request_body(history, tools))
         try:
             message = data["choices"][0]["message"]

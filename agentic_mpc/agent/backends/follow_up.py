@@ -7,9 +7,9 @@ call and then replied, in all 8 such cases of the eval suite. So the chat backen
 template``, with the compact prompt) read the message for the *kinds* of change it asks for, with the rules'
 lexicon, and compare them with the kinds the step's successful calls made:
 
-- everything asked is done: the step's reply is written from the results (:func:`template_reply`), and no
-  answer is asked of the model (unless knowledge was retrieved for the message: then the model replies, citing
-  the rule it followed);
+- everything asked is done: the step's reply is written from the results (:func:`template_reply`), citing the
+  passages retrieved for the message as a model's reply must (the knowledge the call was made with), and no
+  answer is asked of the model;
 - a kind is left (:func:`left_undone`): the model is asked again, told which part of the message is left.
 
 Kinds: ``side`` (a side for obstacles), ``speed`` (a speed with its unit, slower, faster), ``lane`` (a named
@@ -119,12 +119,13 @@ def follow_up_note(undone: dict[Kind, str]) -> str:
     return f"The message also asks for {parts}: make that call now."
 
 
-def template_reply(history: Sequence[Message]) -> str:
-    """The step's reply written from its successful calls and the notes the tool layer added to them (a speed
-    set to the limit, a unit converted)."""
+def template_reply(history: Sequence[Message], cites: Sequence[str] = ()) -> str:
+    """The step's reply written from its successful calls, the notes the tool layer added to them (a speed set
+    to the limit, a unit converted) and the documents retrieved for the message (``cites``), as a model's
+    reply names them ("... [jp-traffic-rules]")."""
     step = _step(history)
     applied = {m.tool_call_id for m in step if m.role == "tool" and not m.is_error}
     done = [f"{c.name}({', '.join(f'{k}={v}' for k, v in (c.arguments or {}).items())})"
             for m in step if m.role == "assistant" for c in m.tool_calls if c.id in applied]
     notes = [m.content.strip() for m in step if m.role == "assistant" and m.tool_calls and m.content.strip()]
-    return " ".join([f"Done: {'; '.join(done)}.", *notes])
+    return " ".join([f"Done: {'; '.join(done)}.", *notes, *(f"[{cite}]" for cite in cites)])
