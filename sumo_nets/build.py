@@ -36,7 +36,7 @@ LAMPILOT_SHOULDER_LANES = (3, 4, 5, 6)
 """Lane counts of the ``dt-highway-v0`` nets, the emergency lane included."""
 
 NET_NAMES = ("straight", "emergency", "curvy", "lampilot_motorway",
-             *(f"lampilot_shoulder{n}" for n in LAMPILOT_SHOULDER_LANES), "lampilot_crossroad")
+             *(f"lampilot_shoulder{n}" for n in LAMPILOT_SHOULDER_LANES), "lampilot_crossroad", "signal_avenue")
 
 NETCONVERT_OPTIONS = (
     "--offset.disable-normalization", "true",
