@@ -71,6 +71,10 @@ def _metres(match: re.Match[str]) -> float:
     return value * _FEET_TO_M if re.search(r"feet|ft", match.group(0)) else value
 
 
+ASK_GAP = "Please give the following distance in metres."
+"""Asking back for a gap: where the message gave a length, the rules did not read it (rules_understanding)."""
+
+
 def maneuver_call(text: str, tools: dict[str, Any]) -> tuple[tuple[str, dict[str, Any]] | None, str | None]:
     """(the tool call, a note) for a message that asks for one of these manoeuvres; (None, None) otherwise."""
     s = " ".join(normalise(text).replace("-", " ").split())  # number words as digits, as the speeds read them
@@ -132,4 +136,4 @@ def _following_distance(s: str) -> tuple[tuple[str, dict[str, Any]] | None, str 
     if absolute is not None:
         gap = _metres(absolute)
         return (str(ToolName.SET_FOLLOWING_DISTANCE), {"gap": gap}), f"Keeping a {gap:g} m gap to the car ahead."
-    return None, "Please give the following distance in metres."
+    return None, ASK_GAP

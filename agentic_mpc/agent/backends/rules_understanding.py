@@ -129,6 +129,8 @@ def _recognised(clause: str, emergency_message: bool, about_obstacles: bool, sid
     if emergency_message and any(p.search(clause) for p in (_EMERGENCY, _GONE, _YIELD, _PRESENCE, _ONCOMING)):
         return True
     call, note = rules_maneuvers.maneuver_call(clause, tools)
+    if call is None and note == rules_maneuvers.ASK_GAP and _LENGTH.search(clause):
+        return False  # asking for a length the clause gives: its wording was not read ("the gap should be 15 m")
     return call is not None or note is not None  # a manoeuvre it reads, or asks back about (which side?)
 
 
