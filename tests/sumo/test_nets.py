@@ -83,6 +83,6 @@ def test_route_files_define_the_types_the_scenarios_use():
         assert params.get("has.bluelight.device") == "true", route_file.name
         assert types["ego"].get("speedDev") == "0"
         # lampilot serves five nets (the world makes the route from the road); types serves any network;
-        # drt_osm's flows are routed by SUMO from their from/to edges
-        shared = route_file.name in ("lampilot.rou.xml", "types.rou.xml", "drt_osm.rou.xml")
+        # drt_osm's and signal_avenue's flows are routed by SUMO from their from/to edges
+        shared = route_file.name in ("lampilot.rou.xml", "types.rou.xml", "drt_osm.rou.xml", "signal_avenue.rou.xml")
         assert [r.get("id") for r in root.iter("route")] == ([] if shared else ["road"]), route_file.name
