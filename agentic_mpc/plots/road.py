@@ -41,20 +41,13 @@ def run_road(scenario: Mapping[str, Any]) -> RunRoad | None:
     return None
 
 
-@dataclass(frozen=True)
-class RouteEnds:
-    """A route by its ends as ``scenario.json`` writes it (``{from_edge, via, to_edge}``): what
-    :meth:`~agentic_mpc.sumo.network.RoadNetwork.road` routes through, hashable for the caches here."""
-
-    from_edge: str
-    via: tuple[str, ...]
-    to_edge: str
-
-
-def _road_key(road: Any) -> str | tuple[str, ...] | RouteEnds:
+def _road_key(road: Any) -> Any:
+    """The road as :meth:`~agentic_mpc.sumo.network.RoadNetwork.road` takes it, hashable for the caches here: a
+    route by its ends (``scenario.json``'s ``{from_edge, via, to_edge}``) as the config's ``RouteEnds`` (frozen)."""
     if isinstance(road, Mapping):
-        return RouteEnds(str(road.get("from_edge", road.get("from"))), tuple(road.get("via") or ()),
-                         str(road.get("to_edge", road.get("to"))))
+        from agentic_mpc.sumo.config import RouteEnds
+
+        return RouteEnds.model_validate(road)
     return tuple(road) if isinstance(road, list) else road
 
 
@@ -79,7 +72,7 @@ def sumo_network_and_road(simulation: Mapping[str, Any]) -> tuple[Any, Any]:
 
 
 @lru_cache(maxsize=16)
-def _sumo_road(net_file: str, road: str | tuple[str, ...] | RouteEnds) -> RunRoad:
+def _sumo_road(net_file: str, road: Any) -> RunRoad:
     network = _network(net_file)
     sumo_road = network.road(road)
     lanes = {role: sumo_road.lane_paths[i] for role, i in sumo_road.lane_roles().items()}

@@ -177,7 +177,8 @@ class ChatBackend:
             return [] if retrieved_ids(history) or searched else [t for t in shown if t.name.endswith(SEARCH_SUFFIX)]
         return shown
 
-    def _rendered(self, history: Sequence[Message], shown: Sequence[ToolSpec]) -> list[dict[str, Any]]:
+    def _rendered(self, history: Sequence[Message], shown: Sequence[ToolSpec],
+                  undone: dict[str, str] | None = None) -> list[dict[str, Any]]:
         fitted = self.window.fit(history)
         if self.compact:  # the situation and the earlier steps in a few lines; tools the message brought named
             fitted = [replace(m, content=compact_search_result(m.content)) if m.role == "tool"
@@ -187,15 +188,16 @@ class ChatBackend:
             if extra and fitted and fitted[-1].role == "user":
                 note = "Also for this message: " + "; ".join(f"{signature(t)}: {short_description(t)}" for t in extra)
                 fitted[-1] = replace(fitted[-1], context="\n\n".join(filter(None, [fitted[-1].context, note])))
-            if self.follows_up and (undone := left_undone(history)):
+            if undone:  # what the message asked and the step's calls have not done yet (follow_up.py)
                 fitted[-1] = replace(fitted[-1], content=f"{fitted[-1].content} {follow_up_note(undone)}")
         return render_messages(fitted, self.config.effective_tool_mode)
 
-    def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> dict[str, Any]:
+    def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec],
+                     undone: dict[str, str] | None = None) -> dict[str, Any]:
         self._all_tools = list(tools)
         shown = self.offered_tools(history, tools)
         body: dict[str, Any] = {
-            "messages": self._rendered(history, shown),
+            "messages": self._rendered(history, shown, undone),
             "temperature": self.config.temperature,
         }
         if self.config.effective_tool_mode == "json_schema":
@@ -220,9 +222,10 @@ class ChatBackend:
         return self.compact and self.config.confirmation == "template"
 
     async def complete(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> BackendReply:
-        if self.follows_up and left_undone(history) == {}:  # all done: the results say it, with the passages cited
+        undone = left_undone(history) if self.follows_up else None
+        if undone == {}:  # all done: the results say it, with the passages cited
             return BackendReply(template_reply(history, retrieved_ids(history)))
-        data = await self.send(self.request_body(history, tools))
+        data = await self.send(self.request_body(history, tools, undone))
         try:
             message = data["choices"][0]["message"]
             if not isinstance(message, dict):

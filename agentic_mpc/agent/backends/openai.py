@@ -85,8 +85,9 @@ class OpenAIBackend(ChatBackend):
             headers["Authorization"] = f"Bearer {key}"
         return headers
 
-    def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec]) -> dict[str, Any]:
-        return {"model": self.config.model, **super().request_body(history, tools)}
+    def request_body(self, history: Sequence[Message], tools: Sequence[ToolSpec],
+                     undone: dict[str, str] | None = None) -> dict[str, Any]:
+        return {"model": self.config.model, **super().request_body(history, tools, undone)}
 
     async def send(self, body: dict[str, Any]) -> dict[str, Any]:
         import httpx
