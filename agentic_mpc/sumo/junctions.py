@@ -14,7 +14,7 @@ from typing import Any
 
 from agentic_mpc.sumo.bridge import SumoBridge
 from agentic_mpc.sumo.network import Road
-from agentic_mpc.world.observation import JunctionAhead
+from agentic_mpc.world.observation import JunctionAhead, VehicleObservation
 
 SIGNALS = {"G": "green", "g": "green", "y": "yellow", "Y": "yellow", "r": "red", "u": "red", "s": "red",
            "o": "off", "O": "off"}
@@ -52,9 +52,11 @@ class RouteJunction:
 class RouteJunctions:
     """The route's junctions and, each step, the ones ahead as :class:`JunctionAhead` records."""
 
-    def __init__(self, road: Road, bridge: SumoBridge) -> None:
+    def __init__(self, road: Road, bridge: SumoBridge, waved: dict[str, str] | None = None) -> None:
         self.road = road
         self.bridge = bridge
+        self.waved: dict[str, str] = waved if waved is not None else {}
+        """The cars the ego waved on that still go first: the lane each stood on (a route change keeps them)."""
         net = road.network.net
         junctions: list[RouteJunction] = []
         pieces = road.pieces
@@ -127,6 +129,20 @@ class RouteJunctions:
         if stopping != self._told_stopping:
             self.bridge.stop_external_at_light(ego_id, stopping)
             self._told_stopping = stopping
+
+    def let_go_first(self, ego_id: str, vehicle_id: str | None, traffic: tuple[VehicleObservation, ...]) -> None:
+        """Tell SUMO's driver of the car the tactics wave on (``vehicle_id``) to go before the ego, and each car
+        waved on before to give way to it again once it has left the junction: it is then on a lane that is
+        neither internal nor the one it stood on (or out of sight)."""
+        lanes = {vehicle.id: vehicle.lane_id for vehicle in traffic}
+        for waved, stood_on in list(self.waved.items()):
+            lane = lanes.get(waved)
+            if lane is None or lane != stood_on and not lane.startswith(":"):
+                self.bridge.let_go_first(waved, ego_id, first=False)
+                del self.waved[waved]
+        if vehicle_id is not None and vehicle_id in lanes:
+            self.bridge.let_go_first(vehicle_id, ego_id)
+            self.waved[vehicle_id] = lanes[vehicle_id]
 
     def _ahead_of(self, junction: RouteJunction, front_s_m: float, states: dict[str, str]) -> JunctionAhead:
         char = states[junction.tls_id][junction.link_index] if junction.tls_id else junction.state

@@ -34,6 +34,7 @@ predicted at constant speed into the ego it would make the ego flee forwards.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 
@@ -94,7 +95,7 @@ class SurroundingsBuilder:
         c = self.config
         return TacticalRoad(self._lane_centres, self.ego_length_m, self.ego_width_m, c.clearance_margin_m,
                             c.max_discs_per_vehicle, c.range_ahead_m, self.road.speed_zones,
-                            self.road.speed_limit_mps)
+                            self.road.speed_limit_mps, partial(locate, self.road.reference_table))
 
     def _cover(self, vehicle: VehicleObservation, physical: bool = False) -> DiscCover:
         """The disc cover around ``vehicle``: the lane-entry one on an enterable lane, unless ``physical``."""

@@ -273,6 +273,8 @@ class SumoWorld(RoadReadings, WorldReadings):
                      ) -> Surroundings:
         if plan is not None and self.junctions is not None:  # SUMO's drivers must know the ego stops at a light
             self.junctions.tell_light_stop(self.config.ego_id, plan.stop_line_s_m)
+            if plan.wave_through is not None or self.junctions.waved:  # ... and when it lets one of them go first
+                self.junctions.let_go_first(self.config.ego_id, plan.wave_through, self.observation.traffic)
         return self._builder(horizon).build(self.observation, self._state, self.lane_index_of(tracked_path), plan)
 
     @property
@@ -299,7 +301,7 @@ class SumoWorld(RoadReadings, WorldReadings):
             self.config.centre_lateral_offsets)
         self._surroundings.clear()
         self._lane_of_path.clear()
-        self.junctions = RouteJunctions(road, self._bridge)
+        self.junctions = RouteJunctions(road, self._bridge, self.junctions.waved if self.junctions else None)
         if self._intention is not None:
             self._intention = IntentionReader(road, self.ego_width_m, max_decel_mps2=self.config.announce_max_decel_mps2)
         self.goal_s_m = self.config.goal_s_m if self.config.goal_s_m is not None else road.reference.length_m - 40.0

@@ -11,10 +11,10 @@ from pydantic import Field, field_validator
 from agentic_mpc.frozen_config import FrozenConfig
 
 RuleName = Literal["queue_room", "passing_lanes", "gap_acceptance", "pass_beside_queue", "pull_out_past_stopped_car",
-                   "merge_ahead_of_queue", "speed_zones", "traffic_lights", "right_of_way"]
+                   "merge_ahead_of_queue", "speed_zones", "traffic_lights", "right_of_way", "wave_through"]
 ALL_RULES: tuple[RuleName, ...] = ("queue_room", "passing_lanes", "gap_acceptance", "pass_beside_queue",
                                    "pull_out_past_stopped_car", "merge_ahead_of_queue", "speed_zones", "traffic_lights",
-                                   "right_of_way")
+                                   "right_of_way", "wave_through")
 """Every rule: the blockage rules in the order the lane J1 follows is decided (the first detour rule that starts
 wins), then the junction rules (:mod:`agentic_mpc.tactics.junctions`; they act only on routes with junctions)."""
 
@@ -93,6 +93,14 @@ class RightOfWay(FrozenConfig):
     gap_held_s: float = Field(1.0, ge=0, le=10.0, description="near the line, how long the gap must stay open")
 
 
+class WaveThrough(FrozenConfig):
+    """In a junction, a car standing in the ego's way while the ego stands too is waved on (it goes first)."""
+
+    after_s: float = Field(3.0, ge=0, le=60.0, description="how long both have stood before the ego waves")
+    within_m: float = Field(8.0, gt=0, le=30.0, description="how far ahead of the ego's front the car may stand")
+    standing_mps: float = Field(0.2, ge=0, le=2.0, description="slower than this counts as standing")
+
+
 class TacticsConfig(FrozenConfig):
     """The rules in force (by name; a rule left out is off) and their parameters."""
 
@@ -105,6 +113,7 @@ class TacticsConfig(FrozenConfig):
     speed_zones: SpeedZones = SpeedZones()
     traffic_lights: TrafficLights = TrafficLights()
     right_of_way: RightOfWay = RightOfWay()
+    wave_through: WaveThrough = WaveThrough()
 
     @field_validator("rules", mode="before")
     @classmethod

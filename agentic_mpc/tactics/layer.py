@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,6 +20,7 @@ from agentic_mpc.tactics.covers import disc_cover
 from agentic_mpc.tactics.detour import Detour, Passing
 from agentic_mpc.tactics.junctions import JunctionRules
 from agentic_mpc.tactics.queues import Queue, find_queues
+from agentic_mpc.tactics.wave_through import Waved, WaveThrough
 from agentic_mpc.world.observation import Observation
 
 
@@ -37,6 +39,9 @@ class TacticalRoad:
     """(start, end along the road, speed limit) of the route's stretches slower than the road's limit."""
     speed_limit_mps: float = math.inf
     """The road's limit: a zone's cap at or above it changes nothing (and is not reported)."""
+    locate: Callable[[float, float, float], tuple[float, float]] | None = None
+    """(x, y, an along-road guess) -> (along-road position, offset left of the road's reference line) of the
+    nearest road point near the guess; None: the rules that need the road's shape (``wave_through``) are off."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,6 +84,9 @@ class TacticalPlan:
     """Along-road position of the line the ego's front stops at (J0 holds it there like a standing car)."""
     junction_reason: str | None = None
     """Why the junction rules cap the speed or stop the ego (for the agent)."""
+    wave_through: str | None = None
+    """A car standing in the ego's way in a junction that the ego waves on this step (rule ``wave_through``):
+    the world tells its driver to go first."""
 
 
 NO_TACTICS = TacticalPlan()
@@ -97,6 +105,7 @@ class TacticsLayer:
     def __post_init__(self) -> None:
         self._detour = Detour(self.config)
         self._junction_rules = JunctionRules(self.config, self.road.speed_zones, self.road.speed_limit_mps)
+        self._wave_through = WaveThrough(self.config)
         self.junction_reason: str | None = None
         self._queues_of: Observation | None = None
         self._queues: tuple[Queue, ...] = ()
@@ -130,13 +139,23 @@ class TacticsLayer:
         self._note(self._detour.passing if followed is not None else None, observation.time_s)
         lane = followed if followed is not None else tracked_lane
         junction = self._junction_rules.decide(observation, self.road.ego_length_m)
-        self.junction_reason = junction.reason
+        waved = self._wave_through.decide(observation, self.road, lane, junction.stop_line_s_m is not None)
+        if waved is not None:
+            self.changes.append(_waved_event(waved))
+        self.junction_reason = junction.reason or (self._wave_through.last.describe() if self._waving(
+            observation) else None)
         return TacticalPlan(
             queues=queues, queue_room=config.uses("queue_room"),
             passing_lanes=self._passing_lanes(observation, queues, lane),
             gap_acceptance=config.gap_acceptance if config.uses("gap_acceptance") else None,
             followed_lane=followed, active=self.active, speed_cap_mps=junction.speed_cap_mps,
-            stop_line_s_m=junction.stop_line_s_m, junction_reason=junction.reason)
+            stop_line_s_m=junction.stop_line_s_m, junction_reason=self.junction_reason,
+            wave_through=waved.vehicle_id if waved is not None else None)
+
+    def _waving(self, observation: Observation) -> bool:
+        """Whether the ego is still in the junction where it waved a car through (the agent is told so)."""
+        last = self._wave_through.last
+        return last is not None and any(j.junction_id == last.junction_id for j in observation.junctions_ahead)
 
     def _passing_lanes(self, observation: Observation, queues: tuple[Queue, ...], lane: int | None) -> frozenset[int]:
         """The lanes beside the ego's when a blockage stands ahead in the lane it drives or follows, its tail
@@ -176,6 +195,12 @@ class TacticsLayer:
         if self.junction_reason:
             lines.append(f"junction rules: {self.junction_reason}")
         return "; ".join(lines) or None
+
+
+def _waved_event(waved: Waved) -> dict[str, Any]:
+    return {"event": "waved_through", "sim_time_s": round(waved.time_s, 3), "tau": None, "source": "tactics",
+            "content": waved.vehicle_id, "result": json.dumps({"rule": "wave_through", "vehicle_id": waved.vehicle_id,
+                                                              "junction_id": waved.junction_id})}
 
 
 def _event(kind: str, tactic: ActiveTactic, time_s: float) -> dict[str, Any]:

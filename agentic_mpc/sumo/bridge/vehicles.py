@@ -180,6 +180,15 @@ class VehicleCommands(BridgeState):
         except _LIBSUMO_ERRORS as error:
             raise self._fail(f"telling SUMO whether {vehicle_id!r} stops at a light", error) from error
 
+    def let_go_first(self, vehicle_id: str, ego_id: str, first: bool = True) -> None:
+        """Tell SUMO's driver of ``vehicle_id`` to stop giving way to ``ego_id`` at junctions (``first``), or to
+        give way again. A vehicle that has left the simulation is not told (nothing is left to tell)."""
+        try:
+            libsumo.vehicle.setParameter(vehicle_id, "junctionModel.ignoreIDs", ego_id if first else "")
+        except _LIBSUMO_ERRORS as error:
+            if vehicle_id in libsumo.vehicle.getIDList():
+                raise self._fail(f"telling {vehicle_id!r} to go before {ego_id!r}", error) from error
+
     def move_external(
         self, vehicle_id: str, x_m: float, y_m: float, phi_rad: float, speed_mps: float | None = None,
         accel_mps2: float | None = None,

@@ -1,0 +1,100 @@
+"""Rule ``wave_through``: inside a junction, a car standing in the ego's way while the ego stands too is waved on.
+
+The face-to-face wait it ends: an OpenStreetMap cluster's internal lane can make a turning car wait for the ego at
+a point that lies in the ego's own path (``junction_osm_route``, cluster 1560223815...: the end of the waiting
+car's first internal lane is 0.9 m from the centre of the ego's left turn). The car gives way to the ego, J0 keeps
+the ego's body out of the car's, and both stand for good (five of twenty unseen seeds stood until the run's end).
+A driver in the ego's place waves the other car on: once the ego has stood ``wave_through.after_s`` with a standing
+car reaching into its path within ``wave_through.within_m`` ahead, the plan names that car
+(:attr:`~agentic_mpc.tactics.layer.TacticalPlan.wave_through`) and the world tells its driver to go first (SUMO:
+it stops giving way to the ego at junctions until it has left this one).
+
+Only cars off the ego's lanes (crossing, turning in, oncoming) are waved: one ahead on the ego's own lane is a
+leader, not a car waiting for the ego. Never while the junction rules hold the ego at a line (a red light, giving
+way): that wait is the ego's, not a mutual one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from agentic_mpc.tactics.config import TacticsConfig
+from agentic_mpc.world.observation import Observation, VehicleObservation
+
+if TYPE_CHECKING:
+    from agentic_mpc.tactics.layer import TacticalRoad
+
+NEAR_LINE_M = 5.0
+"""The ego waves only in a junction: its front past the stop line of one, or this close to it."""
+
+
+@dataclass(frozen=True, slots=True)
+class Waved:
+    """A car the ego waved through: which, in which junction, when."""
+
+    vehicle_id: str
+    junction_id: str
+    time_s: float
+
+    def describe(self) -> str:
+        return f"waved {self.vehicle_id} through at junction {self.junction_id} (it stood in the ego's way)"
+
+
+class WaveThrough:
+    """The rule's state over a run: since when the ego has stood with the same car in its way."""
+
+    def __init__(self, config: TacticsConfig) -> None:
+        self.config = config
+        self._blocker: tuple[str, float] | None = None  # (the standing car in the ego's way, since when)
+        self.last: Waved | None = None
+
+    def decide(self, observation: Observation, road: TacticalRoad, lane: int | None, held_at_line: bool
+               ) -> Waved | None:
+        """The car to wave through this step (once per car), or None. ``lane``: the lane J1 follows."""
+        rule = self.config.wave_through
+        ego = observation.ego
+        if (not self.config.uses("wave_through") or road.locate is None or lane is None or held_at_line
+                or ego.speed_mps > rule.standing_mps):
+            self._blocker = None
+            return None
+        junction = next((j for j in observation.junctions_ahead if j.distance_m <= NEAR_LINE_M), None)
+        blocker = self._in_the_way(observation, road, lane) if junction is not None else None
+        if blocker is None:
+            self._blocker = None
+            return None
+        if self._blocker is None or self._blocker[0] != blocker.id:
+            self._blocker = (blocker.id, observation.time_s)
+        if observation.time_s - self._blocker[1] < rule.after_s or (self.last and self.last.vehicle_id == blocker.id):
+            return None
+        self.last = Waved(blocker.id, junction.junction_id, observation.time_s)
+        return self.last
+
+    def _in_the_way(self, observation: Observation, road: TacticalRoad, lane: int) -> VehicleObservation | None:
+        """The nearest standing car off the ego's lanes whose body reaches into the ego's path (its width and the
+        clearance margin each side of the lane's centre line) within ``within_m`` ahead of the ego's front."""
+        from shapely import Polygon, box  # only when the ego stands in a junction
+
+        ego, rule = observation.ego, self.config.wave_through
+        front_s = ego.road_s_m + 0.5 * road.ego_length_m
+        half = 0.5 * road.ego_width_m + road.clearance_margin_m
+        centre = road.lane_centres_m[lane]
+        path = box(front_s, centre - half, front_s + rule.within_m, centre + half)
+        nearest: tuple[float, VehicleObservation] | None = None
+        for vehicle in observation.traffic:
+            distance = math.hypot(vehicle.x_m - ego.x_m, vehicle.y_m - ego.y_m)
+            if (vehicle.lane_s_m is not None or vehicle.speed_mps > rule.standing_mps
+                    or distance > rule.within_m + 0.5 * (road.ego_length_m + vehicle.length_m)):
+                continue
+            corners = [road.locate(x, y, ego.road_s_m + distance) for x, y in _corners(vehicle)]
+            if Polygon(corners).intersects(path) and (nearest is None or distance < nearest[0]):
+                nearest = (distance, vehicle)
+        return nearest[1] if nearest else None
+
+
+def _corners(vehicle: VehicleObservation) -> list[tuple[float, float]]:
+    c, s = math.cos(vehicle.heading_rad), math.sin(vehicle.heading_rad)
+    a, b = 0.5 * vehicle.length_m, 0.5 * vehicle.width_m
+    return [(vehicle.x_m + i * a * c - j * b * s, vehicle.y_m + i * a * s + j * b * c)
+            for i, j in ((1, 1), (1, -1), (-1, -1), (-1, 1))]
