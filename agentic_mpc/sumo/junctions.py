@@ -32,6 +32,8 @@ FOE_AT_LINE_M = 3.0
 FOE_LOOK_BACK_M = 80.0
 """How far back along the lanes that feed a crossing movement its vehicles are looked for."""
 FOE_LANES = 8
+INSIDE_PARTS = 3
+"""How many internal lanes before a foe lane its movement is followed back through."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,23 +92,26 @@ class RouteJunctions:
         self._ahead: tuple[JunctionAhead, ...] = ()
         self._told_stopping: bool | None = None  # what SUMO was last told (None: nothing yet)
 
-    def _feeding(self, internal_lane: str) -> tuple[tuple[str, int, str, str, tuple[tuple[str, float, float], ...]], ...]:
-        """Per foe of ``internal_lane``: (foe internal lane, its link index, its tls, its state in the network, the
-        lanes that lead to it: (lane id, its length, how far its end lies before the junction)). The lanes are
-        followed back :data:`FOE_LOOK_BACK_M`: an OpenStreetMap junction's feeding lane can be a few metres long,
-        and a car on the lane before appears at the line as if from nowhere."""
+    def _feeding(self, internal_lane: str) -> tuple[tuple[str, int, str, str, tuple[tuple[str, float, float], ...],
+                                                        tuple[str, ...]], ...]:
+        """Per movement that crosses ``internal_lane`` (its foe lane and a lane that feeds it): (the foe internal
+        lane, its link index, its tls, its state in the network, the lanes that lead to it: (lane id, its length,
+        how far its end lies before the junction), the internal lanes between the junction's edge and the foe
+        lane). The lanes are followed back :data:`FOE_LOOK_BACK_M`: an OpenStreetMap junction's feeding lane can
+        be a few metres long, and a car on the lane before appears at the line as if from nowhere; and through
+        the foe lane's internal predecessors: in a cluster a movement's crossing part can be its second internal
+        lane, and a car on the first is already on its way (tuning seed 303, t = 495 s)."""
         net = self.road.network.net
         feeders = []
         for foe in self.bridge.internal_foes(internal_lane):
-            for incoming in net.getLane(foe).getIncoming():
-                if incoming.getEdge().getFunction() == "internal" or incoming.getEdge().getID() in self._route_edges:
-                    continue  # not a lane that feeds the junction; or the ego's own road (it merges, not crosses)
-                connection = next((c for c in incoming.getOutgoing() if c.getViaLaneID() == foe), None)
+            for incoming, inside in _entries(net.getLane(foe), self._route_edges):
+                first = inside[0] if inside else foe
+                connection = next((c for c in incoming.getOutgoing() if c.getViaLaneID() == first), None)
                 if connection is None:
                     continue
                 tls = connection.getTLSID() or ""
                 feeders.append((foe, connection.getTLLinkIndex() if tls else -1, tls, connection.getState(),
-                                _upstream(incoming, self._route_edges)))
+                                _upstream(incoming, self._route_edges), inside))
         return tuple(feeders)
 
     def ahead(self, front_s_m: float) -> tuple[JunctionAhead, ...]:
@@ -161,12 +166,14 @@ class RouteJunctions:
         against a minor road or a stop sign, every movement at right-before-left or an all-way stop."""
         soonest: float | None = None
         for lane in junction.internal_lanes:
-            for foe, link_index, tls, state, upstream in self._feeders[lane]:
+            for foe, link_index, tls, state, upstream, inside in self._feeders[lane]:
                 foe_state = states.get(tls, "r")[link_index] if tls else state
                 if not _has_priority_over(foe_state, own):
                     continue  # stopped by its light, or giving way itself
-                if self.bridge.approaching(foe, 0.0):
-                    return 0.0
+                if self.bridge.approaching(foe, 0.0) or any(
+                        speed >= FOE_SPEED_FLOOR_MPS for part in inside for _, _, speed in self.bridge.approaching(
+                            part, 0.0)):
+                    return 0.0  # on the movement inside the junction (standing before its crossing part: it waits)
                 for feeder, length, before_m in upstream:
                     for _vehicle_id, distance_m, speed_mps in self.bridge.approaching(feeder, length):
                         distance_m += before_m
@@ -175,6 +182,23 @@ class RouteJunctions:
                         arrival = distance_m / max(speed_mps, FOE_SPEED_FLOOR_MPS)
                         soonest = arrival if soonest is None else min(soonest, arrival)
         return soonest
+
+
+def _entries(foe_lane: Any, route_edges: frozenset[str]) -> list[tuple[Any, tuple[str, ...]]]:
+    """(a lane that enters the junction towards ``foe_lane``, the internal lanes between it and ``foe_lane``) for
+    each way a movement reaches the foe lane, back through at most :data:`INSIDE_PARTS` internal lanes; none from
+    the ego's own route (it merges, not crosses)."""
+    found: list[tuple[Any, tuple[str, ...]]] = []
+    frontier: list[tuple[Any, tuple[str, ...]]] = [(foe_lane, ())]
+    while frontier:
+        lane, inside = frontier.pop()
+        for incoming in lane.getIncoming():
+            if incoming.getEdge().getFunction() == "internal":
+                if len(inside) < INSIDE_PARTS and incoming.getID() not in inside:
+                    frontier.append((incoming, (incoming.getID(), *inside)))
+            elif incoming.getEdge().getID() not in route_edges:
+                found.append((incoming, inside))
+    return found
 
 
 def _upstream(lane: Any, route_edges: frozenset[str]) -> tuple[tuple[str, float, float], ...]:

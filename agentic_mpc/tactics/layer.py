@@ -18,7 +18,7 @@ from typing import Any
 from agentic_mpc.tactics.config import GapAcceptance, TacticsConfig
 from agentic_mpc.tactics.covers import disc_cover
 from agentic_mpc.tactics.detour import Detour, Passing
-from agentic_mpc.tactics.junctions import JunctionRules
+from agentic_mpc.tactics.junctions import JunctionDecision, JunctionRules
 from agentic_mpc.tactics.queues import Queue, find_queues
 from agentic_mpc.tactics.wave_through import Waved, WaveThrough
 from agentic_mpc.world.observation import Observation
@@ -142,20 +142,17 @@ class TacticsLayer:
         waved = self._wave_through.decide(observation, self.road, lane, junction.stop_line_s_m is not None)
         if waved is not None:
             self.changes.append(_waved_event(waved))
-        self.junction_reason = junction.reason or (self._wave_through.last.describe() if self._waving(
-            observation) else None)
+        if junction.stop_line_s_m is None and self._wave_through.hold(observation, self.road):
+            front_s = observation.ego.road_s_m + 0.5 * self.road.ego_length_m  # stand where it is
+            junction = JunctionDecision(0.0, front_s, self._wave_through.last.describe())  # type: ignore[union-attr]
+        self.junction_reason = junction.reason
         return TacticalPlan(
             queues=queues, queue_room=config.uses("queue_room"),
             passing_lanes=self._passing_lanes(observation, queues, lane),
             gap_acceptance=config.gap_acceptance if config.uses("gap_acceptance") else None,
             followed_lane=followed, active=self.active, speed_cap_mps=junction.speed_cap_mps,
-            stop_line_s_m=junction.stop_line_s_m, junction_reason=self.junction_reason,
+            stop_line_s_m=junction.stop_line_s_m, junction_reason=junction.reason,
             wave_through=waved.vehicle_id if waved is not None else None)
-
-    def _waving(self, observation: Observation) -> bool:
-        """Whether the ego is still in the junction where it waved a car through (the agent is told so)."""
-        last = self._wave_through.last
-        return last is not None and any(j.junction_id == last.junction_id for j in observation.junctions_ahead)
 
     def _passing_lanes(self, observation: Observation, queues: tuple[Queue, ...], lane: int | None) -> frozenset[int]:
         """The lanes beside the ego's when a blockage stands ahead in the lane it drives or follows, its tail

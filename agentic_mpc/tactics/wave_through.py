@@ -7,7 +7,8 @@ the ego's body out of the car's, and both stand for good (five of twenty unseen 
 A driver in the ego's place waves the other car on: once the ego has stood ``wave_through.after_s`` with a standing
 car reaching into its path within ``wave_through.within_m`` ahead, the plan names that car
 (:attr:`~agentic_mpc.tactics.layer.TacticalPlan.wave_through`) and the world tells its driver to go first (SUMO:
-it stops giving way to the ego at junctions until it has left this one).
+it stops giving way to the ego at junctions until it has left this one). The ego then stands until that car is out
+of its way (:meth:`WaveThrough.hold`): a stop at its front, as the junction rules' stop at a line.
 
 Only cars off the ego's lanes (crossing, turning in, oncoming) are waved: one ahead on the ego's own lane is a
 leader, not a car waiting for the ego. Never while the junction rules hold the ego at a line (a red light, giving
@@ -39,7 +40,7 @@ class Waved:
     time_s: float
 
     def describe(self) -> str:
-        return f"waved {self.vehicle_id} through at junction {self.junction_id} (it stood in the ego's way)"
+        return f"waved {self.vehicle_id} through at junction {self.junction_id}: waiting for it to go first"
 
 
 class WaveThrough:
@@ -49,6 +50,9 @@ class WaveThrough:
         self.config = config
         self._blocker: tuple[str, float] | None = None  # (the standing car in the ego's way, since when)
         self.last: Waved | None = None
+        self.holding = False
+        """Whether the ego waits for the car it waved on (:meth:`hold`)."""
+        self._still_since: float | None = None  # since when the waved car has stood again
 
     def decide(self, observation: Observation, road: TacticalRoad, lane: int | None, held_at_line: bool
                ) -> Waved | None:
@@ -56,7 +60,7 @@ class WaveThrough:
         rule = self.config.wave_through
         ego = observation.ego
         if (not self.config.uses("wave_through") or road.locate is None or lane is None or held_at_line
-                or ego.speed_mps > rule.standing_mps):
+                or self.holding or ego.speed_mps > rule.standing_mps):
             self._blocker = None
             return None
         junction = next((j for j in observation.junctions_ahead if j.distance_m <= NEAR_LINE_M), None)
@@ -69,7 +73,28 @@ class WaveThrough:
         if observation.time_s - self._blocker[1] < rule.after_s or (self.last and self.last.vehicle_id == blocker.id):
             return None
         self.last = Waved(blocker.id, junction.junction_id, observation.time_s)
+        self.holding, self._still_since = True, observation.time_s
         return self.last
+
+    def hold(self, observation: Observation, road: TacticalRoad) -> bool:
+        """Whether the ego still waits for the car it waved on: while that car is off the ego's lanes within
+        ``within_m`` of the ego's front (a U-turning car's body swings across the ego's path: tuning seed 312) and
+        has not stood ``after_s`` since the wave or since it last moved (then waving did not help, and the ego
+        drives as it would have)."""
+        if not self.holding or self.last is None:
+            return False
+        rule, ego = self.config.wave_through, observation.ego
+        car = next((v for v in observation.traffic if v.id == self.last.vehicle_id), None)
+        reach = rule.within_m + 0.5 * road.ego_length_m + (0.5 * car.length_m if car is not None else 0.0)
+        if car is None or car.lane_s_m is not None or math.hypot(car.x_m - ego.x_m, car.y_m - ego.y_m) > reach:
+            self.holding = False  # gone, ahead in the ego's lane (a leader now) or out of its way
+        elif car.speed_mps > rule.standing_mps:
+            self._still_since = None
+        elif self._still_since is None:
+            self._still_since = observation.time_s
+        elif observation.time_s - self._still_since >= rule.after_s:
+            self.holding = False
+        return self.holding
 
     def _in_the_way(self, observation: Observation, road: TacticalRoad, lane: int) -> VehicleObservation | None:
         """The nearest standing car off the ego's lanes whose body reaches into the ego's path (its width and the

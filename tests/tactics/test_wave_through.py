@@ -69,3 +69,22 @@ def test_the_wait_is_counted_from_when_the_same_car_stands_in_the_way():
     second = [layer.plan(seen(2.0 + 0.5 * k, car(107.0, 3.15, vehicle_id="b")), tracked_lane=0).wave_through
               for k in range(7)]
     assert set(first) == {None} and second.index("b") == 6  # b's 3 s, not a's and b's together
+
+
+def test_the_ego_stands_until_the_car_it_waved_on_is_out_of_its_way():
+    layer = TacticsLayer(TacticsConfig(), ROAD)
+    run(layer, car(107.0, 3.15), until_s=3.0)  # waved at t = 3 s
+    front_s = EGO_X_M + 0.5 * EGO_LENGTH_M
+    moving = layer.plan(seen(3.5, car(106.0, 3.15, heading_rad=math.pi, speed_mps=2.0)), tracked_lane=0)
+    assert moving.speed_cap_mps == 0.0 and moving.stop_line_s_m == front_s  # it turns across: the ego stands
+    assert "waiting for it to go first" in moving.junction_reason
+    gone = layer.plan(seen(4.0, car(120.0, 3.15, heading_rad=0.0, speed_mps=4.0, lane_s_m=120.0)), tracked_lane=0)
+    assert gone.stop_line_s_m is None and gone.speed_cap_mps is None  # ahead in the ego's lane: a leader now
+
+
+def test_a_car_that_stays_put_after_the_wave_holds_the_ego_no_longer_than_the_rules_time():
+    layer = TacticsLayer(TacticsConfig(), ROAD)
+    run(layer, car(107.0, 3.15), until_s=3.0)
+    holds = [layer.plan(seen(3.0 + 0.5 * k, car(107.0, 3.15)), tracked_lane=0).stop_line_s_m is not None
+             for k in range(1, 9)]
+    assert holds == [True] * 5 + [False] * 3  # waved at 3.0 s; it has stood 3 s since at 6.0 s
