@@ -5,8 +5,9 @@
 - ``junction_passed``: its front left the junction;
 - ``red_light_violation``: it crossed on red, or on a yellow that came while a stop at ``YELLOW_STOP_MPS2`` was
   still possible;
-- ``right_of_way_violation``: it entered where it gives way while a vehicle with priority would arrive before
-  the ego had cleared the junction, speeding up from its speed at ``CLEARING_ACCEL_MPS2``.
+- ``right_of_way_violation``: it entered where it gives way (or went on from a waiting point inside) while a
+  vehicle with priority would arrive before the ego had cleared the junction, speeding up from its speed at
+  ``CLEARING_ACCEL_MPS2``.
 ``stopped_at_lights_s``: the time standing at a red or yellow light (its front within ``AT_LINE_M`` of the line).
 """
 
@@ -59,6 +60,9 @@ class JunctionLog:
             before = self._last.get(junction.junction_id)
             if before is not None and before.distance_m >= 0.0 > junction.distance_m:
                 self._entered(before, junction, observation)
+            if before is not None and before.wait_s_m is not None and (
+                    before.stop_s_m - before.distance_m < before.wait_s_m <= junction.stop_s_m - junction.distance_m):
+                self._went_on(before, observation)
         first = observation.junctions_ahead[0] if observation.junctions_ahead else None
         if (first is not None and first.signal in ("red", "yellow") and 0.0 <= first.distance_m <= AT_LINE_M
                 and ego.speed_mps < STANDING_MPS):
@@ -77,9 +81,22 @@ class JunctionLog:
         if before.signal == "red" or (before.signal == "yellow" and self._stoppable_yellow.get(before.junction_id)):
             self.red_light_violations += 1
             self.events.append(self._row("red_light_violation", junction, observation, facts))
-        way_m = before.exit_s_m - before.stop_s_m + self.ego_length_m  # its rear out of the junction
+        self._check_way(before, before.stop_s_m, before.foe_arrival_s, junction, observation, facts)
+
+    def _went_on(self, before: JunctionAhead, observation: Observation) -> None:
+        """The front passed the junction's waiting point: the movements it waited for there are checked."""
+        facts = {"at": "waiting point", "foe_arrival_s": before.inside_foe_arrival_s,
+                 "speed_mps": round(observation.ego.speed_mps, 2)}
+        self._check_way(before, before.wait_s_m, before.inside_foe_arrival_s, before, observation, facts)
+
+    def _check_way(self, before: JunctionAhead, from_s_m: float | None, arrival_s: float | None,
+                   junction: JunctionAhead, observation: Observation, facts: dict[str, Any]) -> None:
+        """A right-of-way violation if a vehicle with priority arrived before the ego, from ``from_s_m`` at its
+        speed now, had its rear out of the junction."""
+        speed = observation.ego.speed_mps
+        way_m = before.exit_s_m - (from_s_m or before.stop_s_m) + self.ego_length_m
         clear_s = (-speed + math.sqrt(speed * speed + 2.0 * CLEARING_ACCEL_MPS2 * way_m)) / CLEARING_ACCEL_MPS2
-        if before.must_yield and before.foe_arrival_s is not None and before.foe_arrival_s < clear_s:
+        if before.must_yield and arrival_s is not None and arrival_s < clear_s:
             self.right_of_way_violations += 1
             self.events.append(self._row("right_of_way_violation", junction, observation,
                                          {**facts, "clear_s": round(clear_s, 2)}))

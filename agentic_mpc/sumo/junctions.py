@@ -9,8 +9,12 @@ continues (no light, no crossing movement) are not junctions here.
 
 from __future__ import annotations
 
+import functools
+import gzip
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree
 
 from agentic_mpc.sumo.bridge import SumoBridge
 from agentic_mpc.sumo.network import Road
@@ -20,6 +24,8 @@ SIGNALS = {"G": "green", "g": "green", "y": "yellow", "Y": "yellow", "r": "red",
            "o": "off", "O": "off"}
 """SUMO's link states as lights (``s``: a red that may be passed after stopping, rare; read as red)."""
 DIRECTIONS = {"s": "straight", "l": "left", "L": "left", "r": "right", "R": "right", "t": "turn"}
+STOPPED_BY_LIGHT = frozenset("ru")
+"""A light's link states that hold a movement (red, red-yellow)."""
 MINOR_STATES = frozenset("gmsw=")
 """Link states that give way: minor green, minor road, stop sign, all-way stop, right before left."""
 LOOK_AHEAD_M = 200.0
@@ -49,6 +55,12 @@ class RouteJunction:
     link_index: int
     state: str
     """The connection's state in the network (``M`` major, ``m`` minor, ``s`` stop, ``w`` all-way stop, ...)."""
+    wait_s_m: float | None = None
+    """Where the ego's front waits inside the junction for a gap in the movements its turn crosses further in:
+    the end of its first internal lane where SUMO has an internal junction there (a left turn across oncoming
+    traffic); None: it gives way at the line only."""
+    inside_foes: frozenset[str] = frozenset()
+    """The internal lanes of the movements the ego waits for at ``wait_s_m`` (the internal junction's)."""
 
 
 class RouteJunctions:
@@ -62,6 +74,8 @@ class RouteJunctions:
         net = road.network.net
         junctions: list[RouteJunction] = []
         pieces = road.pieces
+        internal_junctions = _internal_junctions(road.network.path)
+        links: dict[str, Any] = {}  # per internal lane of the route: the ego's connection through that junction
         k = 0
         while k < len(pieces):
             piece, start = pieces[k]
@@ -82,22 +96,25 @@ class RouteJunctions:
             tls = connection.getTLSID() or ""
             if not tls and not any(bridge.internal_foes(lane) for lane in internal):
                 continue  # the road just continues here
+            waiting = _waiting_point(net, internal, stop_s, internal_junctions)
+            links.update((lane, connection) for lane in internal)
             junctions.append(RouteJunction(
                 pieces[k - 1][0].junction_id or "", stop_s, exit_s, DIRECTIONS.get(connection.getDirection(), "straight"),
-                tuple(internal), tls, connection.getTLLinkIndex() if tls else -1, connection.getState()))
+                tuple(internal), tls, connection.getTLLinkIndex() if tls else -1, connection.getState(), *waiting))
         self.junctions: tuple[RouteJunction, ...] = tuple(junctions)
         self._route_edges = frozenset(road.edge_ids)
         self.tls_ids = tuple(sorted({j.tls_id for j in junctions if j.tls_id}))
-        self._feeders = {lane: self._feeding(lane) for j in junctions for lane in j.internal_lanes}
+        self._feeders = {lane: self._feeding(lane, links[lane]) for j in junctions for lane in j.internal_lanes}
         self._ahead: tuple[JunctionAhead, ...] = ()
         self._told_stopping: bool | None = None  # what SUMO was last told (None: nothing yet)
 
-    def _feeding(self, internal_lane: str) -> tuple[tuple[str, int, str, str, tuple[tuple[str, float, float], ...],
-                                                        tuple[str, ...]], ...]:
+    def _feeding(self, internal_lane: str, own_link: Any) -> tuple[tuple[str, int, str, str, tuple[tuple[
+            str, float, float], ...], tuple[str, ...], bool | None], ...]:
         """Per movement that crosses ``internal_lane`` (its foe lane and a lane that feeds it): (the foe internal
         lane, its link index, its tls, its state in the network, the lanes that lead to it: (lane id, its length,
         how far its end lies before the junction), the internal lanes between the junction's edge and the foe
-        lane). The lanes are followed back :data:`FOE_LOOK_BACK_M`: an OpenStreetMap junction's feeding lane can
+        lane, whether the junction's logic makes the ego's link (``own_link``) give way to it: SUMO's response
+        matrix, None where the network has none). The lanes are followed back :data:`FOE_LOOK_BACK_M`: an OpenStreetMap junction's feeding lane can
         be a few metres long, and a car on the lane before appears at the line as if from nowhere; and through
         the foe lane's internal predecessors: in a cluster a movement's crossing part can be its second internal
         lane, and a car on the first is already on its way (tuning seed 303, t = 495 s)."""
@@ -111,7 +128,7 @@ class RouteJunctions:
                     continue
                 tls = connection.getTLSID() or ""
                 feeders.append((foe, connection.getTLLinkIndex() if tls else -1, tls, connection.getState(),
-                                _upstream(incoming, self._route_edges), inside))
+                                _upstream(incoming, self._route_edges), inside, _forbids(connection, own_link)))
         return tuple(feeders)
 
     def ahead(self, front_s_m: float) -> tuple[JunctionAhead, ...]:
@@ -153,25 +170,38 @@ class RouteJunctions:
         char = states[junction.tls_id][junction.link_index] if junction.tls_id else junction.state
         must_yield = char in MINOR_STATES
         distance = junction.stop_s_m - front_s_m
-        foe_arrival = None
+        foe_arrival = inside_arrival = None
+        waits_inside = junction.wait_s_m is not None and front_s_m < junction.wait_s_m
         if must_yield and distance < FOES_WITHIN_M:
-            foe_arrival = self._foe_arrival_s(junction, states, char)
+            foe_arrival = self._foe_arrival_s(junction, states, char, inside=False)
+            if waits_inside:
+                inside_arrival = self._foe_arrival_s(junction, states, char, inside=True)
         return JunctionAhead(
             junction.junction_id, junction.stop_s_m, junction.exit_s_m, distance, junction.direction,  # type: ignore[arg-type]
-            SIGNALS.get(char) if junction.tls_id else None, must_yield, char in "sw", foe_arrival)
+            SIGNALS.get(char) if junction.tls_id else None, must_yield, char in "sw", foe_arrival,
+            junction.wait_s_m, inside_arrival)
 
-    def _foe_arrival_s(self, junction: RouteJunction, states: dict[str, str], own: str) -> float | None:
+    def _foe_arrival_s(self, junction: RouteJunction, states: dict[str, str], own: str, inside: bool
+                       ) -> float | None:
         """The soonest a vehicle on a crossing movement that has priority over the ego's reaches the junction (one
-        already on such a movement inside it: 0). Priority: a major green against a minor one, a major road
-        against a minor road or a stop sign, every movement at right-before-left or an all-way stop."""
+        already on such a movement inside it: 0). Priority: the junction's logic (SUMO's response matrix: a left
+        turn gives way to the oncoming right turn into its lane though both have a minor green, tuning seed 303);
+        where the network has none, a major green against a minor one, a major road against a minor road or a stop
+        sign; every movement at right-before-left or an all-way stop; a movement whose light is red has none.
+        Where the ego waits inside (``wait_s_m``): the movements it waits for there (``inside``: all that SUMO's
+        internal junction names) or the others."""
         soonest: float | None = None
         for lane in junction.internal_lanes:
-            for foe, link_index, tls, state, upstream, inside in self._feeders[lane]:
+            for foe, link_index, tls, state, upstream, parts, forbids in self._feeders[lane]:
+                if (foe in junction.inside_foes) != inside:
+                    continue
                 foe_state = states.get(tls, "r")[link_index] if tls else state
-                if not _has_priority_over(foe_state, own):
+                if tls and foe_state in STOPPED_BY_LIGHT or not (
+                        inside or (forbids if forbids is not None and own not in "=w" else _has_priority_over(
+                            foe_state, own))):
                     continue  # stopped by its light, or giving way itself
                 if self.bridge.approaching(foe, 0.0) or any(
-                        speed >= FOE_SPEED_FLOOR_MPS for part in inside for _, _, speed in self.bridge.approaching(
+                        speed >= FOE_SPEED_FLOOR_MPS for part in parts for _, _, speed in self.bridge.approaching(
                             part, 0.0)):
                     return 0.0  # on the movement inside the junction (standing before its crossing part: it waits)
                 for feeder, length, before_m in upstream:
@@ -182,6 +212,34 @@ class RouteJunctions:
                         arrival = distance_m / max(speed_mps, FOE_SPEED_FLOOR_MPS)
                         soonest = arrival if soonest is None else min(soonest, arrival)
         return soonest
+
+
+def _waiting_point(net: Any, internal: list[str], stop_s_m: float, internal_junctions: dict[str, frozenset[str]]
+                   ) -> tuple[float, frozenset[str]] | tuple[()]:
+    """(where the front waits, the internal lanes it waits for) where the route's way through a junction goes on
+    from its first internal lane through an internal junction (SUMO's waiting point), else ()."""
+    waits_for = internal_junctions.get(internal[1]) if len(internal) > 1 else None
+    first = net.getLane(internal[0])
+    if not waits_for or not any(c.getToLane().getID() == internal[1] or c.getViaLaneID() == internal[1]
+                                for c in first.getOutgoing()):
+        return ()  # no waiting point, or a carriageway's parallel internal lanes
+    return stop_s_m + first.getLength(), waits_for
+
+
+@functools.lru_cache(maxsize=4)
+def _internal_junctions(net_path: Path) -> dict[str, frozenset[str]]:
+    """The network's internal junctions (SUMO's waiting points inside a junction): the id of the internal lane
+    that goes on from one -> the internal lanes whose vehicles a vehicle waiting there gives way to. sumolib
+    does not read them; a pass over the file's ``junction`` elements does."""
+    found: dict[str, frozenset[str]] = {}
+    opener = gzip.open if net_path.suffix == ".gz" else open
+    with opener(net_path, "rb") as stream:
+        for _, element in ElementTree.iterparse(stream):
+            if element.tag == "junction" and element.get("type") == "internal":
+                found[element.get("id", "")] = frozenset(element.get("intLanes", "").split())
+            if element.tag in ("junction", "edge", "connection", "tlLogic"):
+                element.clear()  # a city's network: keep only what is read
+    return found
 
 
 def _entries(foe_lane: Any, route_edges: frozenset[str]) -> list[tuple[Any, tuple[str, ...]]]:
@@ -219,6 +277,14 @@ def _upstream(lane: Any, route_edges: frozenset[str]) -> tuple[tuple[str, float,
                 found.append((previous.getID(), previous.getLength(), reach))
                 frontier.append((previous, reach))
     return tuple(found[:FOE_LANES])
+
+
+def _forbids(foe_link: Any, own_link: Any) -> bool | None:
+    """Whether the junction's logic makes ``own_link`` give way to ``foe_link`` (None: it has no logic for them)."""
+    try:
+        return bool(own_link.getFrom().getToNode().forbids(foe_link, own_link))
+    except (KeyError, IndexError, AttributeError):
+        return None
 
 
 def _has_priority_over(foe_state: str, own_state: str) -> bool:

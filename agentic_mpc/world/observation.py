@@ -213,10 +213,10 @@ class CollisionObservation:
         return _rounded(self)
 
 
-@_fast_init
 @dataclass(frozen=True, slots=True)
 class JunctionAhead:
-    """A junction on the ego's route that it has not left yet, as the world sees it this step."""
+    """A junction on the ego's route that it has not left yet, as the world sees it this step (a few a step: the
+    generated ``__init__``, with its defaults)."""
 
     junction_id: str
     stop_s_m: float
@@ -234,7 +234,13 @@ class JunctionAhead:
     """The ego must stop at the line before it goes (a stop sign, an all-way stop)."""
     foe_arrival_s: float | None
     """How soon the first vehicle on a movement with priority over the ego's reaches the junction (0: inside it;
-    None: none within sight, or the ego has priority)."""
+    None: none within sight, or the ego has priority). Where the ego waits inside (``wait_s_m``), the movements it
+    waits for there are left out."""
+    wait_s_m: float | None = None
+    """Along-road position inside the junction where the ego's front waits for a gap in the movements its turn
+    crosses further in (SUMO's internal junction, a left turn's; None: it gives way only at the line)."""
+    inside_foe_arrival_s: float | None = None
+    """As ``foe_arrival_s``, for the movements the ego waits for at ``wait_s_m`` (while its front is before it)."""
 
     def to_json(self) -> dict[str, Any]:
         return _rounded(self)

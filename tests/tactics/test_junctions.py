@@ -116,3 +116,24 @@ def test_the_plan_and_the_agents_situation_say_why_the_car_stops():
     assert layer.situation().startswith("junction rules: red light")
     layer.plan(observation(12.0, junction(40.0, "green")), tracked_lane=0)
     assert "junction" not in layer.to_json() and layer.situation() is None
+
+
+def inside(distance_m: float, inside_arrival_s: float | None, *, signal: str = "green", must_yield: bool = True,
+           wait_in_m: float = 8.0, front_s_m: float = 102.6) -> JunctionAhead:
+    """A left turn with a waiting point ``wait_in_m`` past the line; the ego's front ``-distance_m`` past it."""
+    stop = front_s_m + distance_m
+    return JunctionAhead("J", stop, stop + 24.0, distance_m, "left", signal, must_yield, False, None, stop + wait_in_m,
+                         inside_arrival_s)
+
+
+def test_a_turn_with_a_waiting_point_goes_in_and_waits_there_for_a_gap_in_the_oncoming_traffic():
+    rules = JunctionRules(TacticsConfig())
+    decide(rules, 0.0, inside(2.0, 1.0))  # oncoming traffic arriving: no reason to wait at the line, once the
+    assert decide(rules, 0.0, inside(2.0, 1.0), time_s=1.5).stop_line_s_m is None  # (entry) gap has held
+    waiting = decide(rules, 3.0, inside(-3.0, 1.0))  # in the junction, 5 m before the waiting point
+    assert waiting.stop_line_s_m == pytest.approx(102.6 - 3.0 + 8.0)
+    assert waiting.reason.startswith("giving way inside the junction")
+    assert waiting.speed_cap_mps == pytest.approx(4.0)  # braking at 2 m/s² for the point, 1 m before it
+    assert decide(rules, 0.0, inside(-6.5, 9.0)).stop_line_s_m is None  # a gap: it turns
+    assert decide(rules, 0.0, inside(-6.5, None, signal="red", must_yield=False)).stop_line_s_m is None  # clearing
+    assert decide(rules, 5.0, inside(-9.0, 1.0)).stop_line_s_m is None  # past the waiting point: it clears
