@@ -29,6 +29,10 @@ if TYPE_CHECKING:
 
 NEAR_LINE_M = 5.0
 """The ego waves only in a junction: its front past the stop line of one, or this close to it."""
+LEADER_CLEAR_M = 2.0
+"""A waved car that has turned into the ego's lane is out of its way once this far ahead (bumper to bumper):
+alongside, still turning, its rear swings across the ego's lane (tuning seed 312: the ego, let go as soon as the
+car's centre was on its lane, touched its rear)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,8 +90,10 @@ class WaveThrough:
         rule, ego = self.config.wave_through, observation.ego
         car = next((v for v in observation.traffic if v.id == self.last.vehicle_id), None)
         reach = rule.within_m + 0.5 * road.ego_length_m + (0.5 * car.length_m if car is not None else 0.0)
-        if car is None or car.lane_s_m is not None or math.hypot(car.x_m - ego.x_m, car.y_m - ego.y_m) > reach:
-            self.holding = False  # gone, ahead in the ego's lane (a leader now) or out of its way
+        ahead_in_lane = car is not None and car.lane_s_m is not None and car.relation == "ahead" and (
+            car.gap_m > LEADER_CLEAR_M)
+        if car is None or ahead_in_lane or math.hypot(car.x_m - ego.x_m, car.y_m - ego.y_m) > reach:
+            self.holding = False  # gone, clear ahead in the ego's lane (a leader now) or out of its way
         elif car.speed_mps > rule.standing_mps:
             self._still_since = None
         elif self._still_since is None:

@@ -3,6 +3,7 @@ both have stood ``after_s``; never a car beside the path, one on the ego's own l
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -78,6 +79,9 @@ def test_the_ego_stands_until_the_car_it_waved_on_is_out_of_its_way():
     moving = layer.plan(seen(3.5, car(106.0, 3.15, heading_rad=math.pi, speed_mps=2.0)), tracked_lane=0)
     assert moving.speed_cap_mps == 0.0 and moving.stop_line_s_m == front_s  # it turns across: the ego stands
     assert "waiting for it to go first" in moving.junction_reason
+    swinging = dataclasses.replace(car(103.0, 1.0, heading_rad=-1.0, speed_mps=3.0, lane_s_m=103.0),
+                                   relation="alongside", gap_m=-1.9)  # on the ego's lane, still turning
+    assert layer.plan(seen(3.8, swinging), tracked_lane=0).stop_line_s_m == front_s
     gone = layer.plan(seen(4.0, car(120.0, 3.15, heading_rad=0.0, speed_mps=4.0, lane_s_m=120.0)), tracked_lane=0)
     assert gone.stop_line_s_m is None and gone.speed_cap_mps is None  # ahead in the ego's lane: a leader now
 
