@@ -96,7 +96,8 @@ class RouteJunctions:
             tls = connection.getTLSID() or ""
             if not tls and not any(bridge.internal_foes(lane) for lane in internal):
                 continue  # the road just continues here
-            waiting = _waiting_point(net, internal, stop_s, internal_junctions)
+            waiting = _waiting_point(net, internal, road.spans[internal[1]].start_s_m if len(internal) > 1 else 0.0,
+                                     internal_junctions)
             links.update((lane, connection) for lane in internal)
             junctions.append(RouteJunction(
                 pieces[k - 1][0].junction_id or "", stop_s, exit_s, DIRECTIONS.get(connection.getDirection(), "straight"),
@@ -214,16 +215,17 @@ class RouteJunctions:
         return soonest
 
 
-def _waiting_point(net: Any, internal: list[str], stop_s_m: float, internal_junctions: dict[str, frozenset[str]]
+def _waiting_point(net: Any, internal: list[str], second_s_m: float, internal_junctions: dict[str, frozenset[str]]
                    ) -> tuple[float, frozenset[str]] | tuple[()]:
     """(where the front waits, the internal lanes it waits for) where the route's way through a junction goes on
-    from its first internal lane through an internal junction (SUMO's waiting point), else ()."""
+    from its first internal lane through an internal junction (SUMO's waiting point: where the second internal
+    lane, at ``second_s_m`` on the path, begins), else ()."""
     waits_for = internal_junctions.get(internal[1]) if len(internal) > 1 else None
     first = net.getLane(internal[0])
     if not waits_for or not any(c.getToLane().getID() == internal[1] or c.getViaLaneID() == internal[1]
                                 for c in first.getOutgoing()):
         return ()  # no waiting point, or a carriageway's parallel internal lanes
-    return stop_s_m + first.getLength(), waits_for
+    return second_s_m, waits_for
 
 
 @functools.lru_cache(maxsize=4)

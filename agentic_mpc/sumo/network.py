@@ -78,9 +78,11 @@ class Road:
                 if coordinates:
                     s += math.dist(coordinates[-1], shape[0])  # consecutive shapes normally touch
                 nominal = piece.nominal_length_m
+                factor = shape_length / nominal if nominal > 0 else 1.0
+                before = 0.0  # a junction's internal lanes one after another: each starts where the last ends
                 for lane_id in piece.lane_ids:
-                    spans.setdefault(lane_id, LaneSpan(
-                        lane_id, index, s, shape_length, shape_length / nominal if nominal > 0 else 1.0))
+                    spans.setdefault(lane_id, LaneSpan(lane_id, index, s + before * factor, shape_length, factor))
+                    before += network.net.getLane(lane_id).getLength() if len(piece.lane_ids) > 1 else 0.0
                 starts.append((piece, s))
                 coordinates.extend(shape)  # LanePath drops the repeated joint vertex
                 s += shape_length

@@ -43,6 +43,20 @@ def test_sumos_router_finds_the_route_and_the_ego_gets_one_connected_lane_throug
     assert [start for _, start in road.pieces] == sorted(start for _, start in road.pieces)
 
 
+def test_a_position_on_a_turns_second_internal_lane_lies_after_its_first_on_the_route():
+    """A left turn through SUMO's internal junction is two internal lanes (the second after the waiting point): a
+    car at the start of the second part is as far along the route as one at the end of the first (it was mapped
+    back to the junction's start, and the ego drove into a car it took to be beside it: junction_cross left)."""
+    road = RoadNetwork(CROSS).road(ends("1fi", "4fo"))
+    first, second = next(piece for piece, _ in road.pieces if piece.internal and piece.junction_id == "0").lane_ids
+    net = road.network.net
+    end_of_first = road.lane_s(first, net.getLane(first).getLength())
+    assert road.lane_s(second, 0.0) == pytest.approx(end_of_first, abs=0.01)
+    x, y = net.getLane(second).getShape()[-1]  # the second part's end: where the path says it is
+    index, lane_s = road.lane_s(second, net.getLane(second).getLength())
+    assert road.lane_to_road_s(index, lane_s) == pytest.approx(road.road_s(x, y)[0], abs=1.0)
+
+
 def test_the_turns_slower_lanes_are_speed_zones_of_the_route():
     road = RoadNetwork(CROSS).road(ends("1fi", "3fo"))  # a right turn
     assert road.speed_limit_mps == pytest.approx(13.89)
