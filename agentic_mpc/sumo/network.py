@@ -80,9 +80,9 @@ class Road:
                 nominal = piece.nominal_length_m
                 factor = shape_length / nominal if nominal > 0 else 1.0
                 before = 0.0  # a junction's internal lanes one after another: each starts where the last ends
-                for lane_id in piece.lane_ids:
+                for lane_id in piece.lane_ids:  # (an edge's lanes, where the path moves over, lie side by side)
                     spans.setdefault(lane_id, LaneSpan(lane_id, index, s + before * factor, shape_length, factor))
-                    before += network.net.getLane(lane_id).getLength() if len(piece.lane_ids) > 1 else 0.0
+                    before += network.net.getLane(lane_id).getLength() if piece.internal else 0.0
                 starts.append((piece, s))
                 coordinates.extend(shape)  # LanePath drops the repeated joint vertex
                 s += shape_length

@@ -57,6 +57,18 @@ def test_a_position_on_a_turns_second_internal_lane_lies_after_its_first_on_the_
     assert road.lane_to_road_s(index, lane_s) == pytest.approx(road.road_s(x, y)[0], abs=1.0)
 
 
+def test_an_edges_lanes_where_the_route_moves_over_lie_side_by_side_on_it():
+    """Where the route moves over to the lane that leads on, along an edge, both lanes of the edge start where the
+    edge does: a truck standing in the lane moved over to was placed 48 m ahead of where it stood, and the ego drove
+    into it (tuning seed 302)."""
+    network = RoadNetwork(installed_sumo_file("sumo:tools/game/DRT/osm.net.xml"))
+    road = network.road(ends("153021549", "142575692#6", "-142575658#1"))
+    side_by_side = [piece for piece, _ in road.pieces if not piece.internal and len(piece.lane_ids) > 1]
+    assert side_by_side  # (the scenario's route moves over on two edges)
+    for piece in side_by_side:
+        assert len({road.spans[lane].start_s_m for lane in piece.lane_ids}) == 1
+
+
 def test_the_turns_slower_lanes_are_speed_zones_of_the_route():
     road = RoadNetwork(CROSS).road(ends("1fi", "3fo"))  # a right turn
     assert road.speed_limit_mps == pytest.approx(13.89)
