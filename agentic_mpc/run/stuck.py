@@ -123,10 +123,11 @@ class StuckTracker:
 def _why_still(observation: Observation, lane_count: int | None) -> str | None:
     """Why a standing ego counts as stuck, or None when it is queueing behind traffic or held at a junction's line
     (a red or yellow light, giving way, a stop sign) or giving way at its waiting point inside."""
-    if any(0.0 <= j.distance_m <= JUNCTION_LINE_M and (j.signal in ("red", "yellow") or j.must_yield)
-           or j.must_yield and j.wait_s_m is not None and 0.0 <= j.wait_s_m - j.stop_s_m + j.distance_m <= JUNCTION_LINE_M
-           for j in observation.junctions_ahead[:1]):  # (or at its waiting point inside, giving way)
-        return None
+    for j in observation.junctions_ahead[:1]:
+        if 0.0 <= j.distance_m <= JUNCTION_LINE_M and (j.signal in ("red", "yellow") or j.must_yield):
+            return None
+        if j.must_yield and j.wait_s_m is not None and 0.0 <= j.wait_s_m - (j.stop_s_m - j.distance_m) <= JUNCTION_LINE_M:
+            return None  # giving way at its waiting point inside
     ahead = [(v.gap_m, "vehicle", v.id) for v in observation.traffic
              if v.relation == "ahead" and v.gap_m < QUEUE_GAP_M and _in_path(v, observation.ego)]
     ahead += [(o.gap_m, "obstacle", o.id) for o in observation.obstacles

@@ -115,10 +115,11 @@ class RouteJunctions:
         lane, its link index, its tls, its state in the network, the lanes that lead to it: (lane id, its length,
         how far its end lies before the junction), the internal lanes between the junction's edge and the foe
         lane, whether the junction's logic makes the ego's link (``own_link``) give way to it: SUMO's response
-        matrix, None where the network has none). The lanes are followed back :data:`FOE_LOOK_BACK_M`: an OpenStreetMap junction's feeding lane can
-        be a few metres long, and a car on the lane before appears at the line as if from nowhere; and through
-        the foe lane's internal predecessors: in a cluster a movement's crossing part can be its second internal
-        lane, and a car on the first is already on its way (tuning seed 303, t = 495 s)."""
+        matrix, None where the network has none). The lanes are followed back :data:`FOE_LOOK_BACK_M`: an
+        OpenStreetMap junction's feeding lane can be a few metres long, and a car on the lane before appears at the
+        line as if from nowhere; and through the foe lane's internal predecessors: in a cluster a movement's
+        crossing part can be its second internal lane, and a car on the first is already on its way (tuning seed
+        303, t = 495 s)."""
         net = self.road.network.net
         feeders = []
         for foe in self.bridge.internal_foes(internal_lane):

@@ -20,7 +20,7 @@ from agentic_mpc.tactics.covers import disc_cover
 from agentic_mpc.tactics.detour import Detour, Passing
 from agentic_mpc.tactics.junctions import JunctionDecision, JunctionRules
 from agentic_mpc.tactics.queues import Queue, find_queues
-from agentic_mpc.tactics.wave_through import Waved, WaveThrough
+from agentic_mpc.tactics.wave_through import NEAR_LINE_M, Waved, WaveThrough
 from agentic_mpc.world.observation import Observation
 
 
@@ -139,12 +139,16 @@ class TacticsLayer:
         self._note(self._detour.passing if followed is not None else None, observation.time_s)
         lane = followed if followed is not None else tracked_lane
         junction = self._junction_rules.decide(observation, self.road.ego_length_m)
-        waved = self._wave_through.decide(observation, self.road, lane, junction.stop_line_s_m is not None)
+        front_s = observation.ego.road_s_m + 0.5 * self.road.ego_length_m
+        at_line = junction.stop_line_s_m is not None and junction.stop_line_s_m - front_s <= NEAR_LINE_M
+        waved = self._wave_through.decide(observation, self.road, lane, at_line)
         if waved is not None:
             self.changes.append(_waved_event(waved))
-        if junction.stop_line_s_m is None and self._wave_through.hold(observation, self.road):
-            front_s = observation.ego.road_s_m + 0.5 * self.road.ego_length_m  # stand where it is
-            junction = JunctionDecision(0.0, front_s, self._wave_through.last.describe())  # type: ignore[union-attr]
+        last = self._wave_through.last  # the ego stands where it is for a car it waved on or one crossing
+        if not at_line and self._wave_through.hold(observation, self.road, lane) and last is not None:
+            junction = JunctionDecision(0.0, front_s, last.describe())
+        elif not at_line and (crossing := self._wave_through.crossing(observation, self.road, lane)) is not None:
+            junction = JunctionDecision(0.0, front_s, f"waiting for {crossing.id} to cross in front")
         self.junction_reason = junction.reason
         return TacticalPlan(
             queues=queues, queue_room=config.uses("queue_room"),

@@ -28,7 +28,8 @@ if TYPE_CHECKING:
     from agentic_mpc.tactics.layer import TacticalRoad
 
 NEAR_LINE_M = 5.0
-"""The ego waves only in a junction: its front past the stop line of one, or this close to it."""
+"""The ego waves only in a junction: its front past the stop line of one, or this close to it; and never while
+the junction rules stop it at a line this close (a stop further ahead, a red light 74 m on, does not hold it)."""
 LEADER_CLEAR_M = 2.0
 """A waved car that has turned into the ego's lane is out of its way once this far ahead (bumper to bumper):
 alongside, still turning, its rear swings across the ego's lane (tuning seed 312: the ego, let go as soon as the
@@ -56,7 +57,6 @@ class WaveThrough:
         self.last: Waved | None = None
         self.holding = False
         """Whether the ego waits for the car it waved on (:meth:`hold`)."""
-        self._still_since: float | None = None  # since when the waved car has stood again
 
     def decide(self, observation: Observation, road: TacticalRoad, lane: int | None, held_at_line: bool
                ) -> Waved | None:
@@ -77,51 +77,68 @@ class WaveThrough:
         if observation.time_s - self._blocker[1] < rule.after_s or (self.last and self.last.vehicle_id == blocker.id):
             return None
         self.last = Waved(blocker.id, junction.junction_id, observation.time_s)
-        self.holding, self._still_since = True, observation.time_s
+        self.holding = True
         return self.last
 
-    def hold(self, observation: Observation, road: TacticalRoad) -> bool:
-        """Whether the ego still waits for the car it waved on: while that car is off the ego's lanes within
-        ``within_m`` of the ego's front (a U-turning car's body swings across the ego's path: tuning seed 312) and
-        has not stood ``after_s`` since the wave or since it last moved (then waving did not help, and the ego
-        drives as it would have)."""
+    def hold(self, observation: Observation, road: TacticalRoad, lane: int | None) -> bool:
+        """Whether the ego still waits for the car it waved on: while that car, off the ego's lanes (or beside the
+        ego in its lane, still turning) within reach of the ego, moves or stands in the ego's path. A U-turning
+        car's body swings across the ego's path (tuning seed 312); a waved truck stood 10 s more, then set off
+        across the ego, which a release after 3 s of standing had let go (tuning seed 518). One that stands
+        beside the path lets the ego go."""
         if not self.holding or self.last is None:
             return False
         rule, ego = self.config.wave_through, observation.ego
         car = next((v for v in observation.traffic if v.id == self.last.vehicle_id), None)
         reach = rule.within_m + 0.5 * road.ego_length_m + (0.5 * car.length_m if car is not None else 0.0)
-        ahead_in_lane = car is not None and car.lane_s_m is not None and car.relation == "ahead" and (
-            car.gap_m > LEADER_CLEAR_M)
-        if car is None or ahead_in_lane or math.hypot(car.x_m - ego.x_m, car.y_m - ego.y_m) > reach:
+        if (car is None or lane is None or car.lane_s_m is not None and car.relation == "ahead" and car.gap_m > (
+                LEADER_CLEAR_M) or math.hypot(car.x_m - ego.x_m, car.y_m - ego.y_m) > reach):
             self.holding = False  # gone, clear ahead in the ego's lane (a leader now) or out of its way
-        elif car.speed_mps > rule.standing_mps:
-            self._still_since = None
-        elif self._still_since is None:
-            self._still_since = observation.time_s
-        elif observation.time_s - self._still_since >= rule.after_s:
-            self.holding = False
+        elif car.speed_mps <= rule.standing_mps and car.lane_s_m is None and not self._blocks(
+                car, observation, road, lane):
+            self.holding = False  # it stands beside the ego's path
         return self.holding
 
-    def _in_the_way(self, observation: Observation, road: TacticalRoad, lane: int) -> VehicleObservation | None:
-        """The nearest standing car off the ego's lanes whose body reaches into the ego's path (its width and the
-        clearance margin each side of the lane's centre line) within ``within_m`` ahead of the ego's front."""
-        from shapely import Polygon, box  # only when the ego stands in a junction
-
+    def crossing(self, observation: Observation, road: TacticalRoad, lane: int | None) -> VehicleObservation | None:
+        """A car moving across the ego's path (:meth:`_blocks`) while the ego stands on a route with junctions: the
+        ego does not set off until it has gone. J0 alone let the ego creep at 0.6 m/s into the rear of an
+        oncoming car that made a U-turn in front of it just past a junction (tuning seed 508: its body swings round
+        faster than its lane predicts)."""
         ego, rule = observation.ego, self.config.wave_through
-        front_s = ego.road_s_m + 0.5 * road.ego_length_m
-        half = 0.5 * road.ego_width_m + road.clearance_margin_m
-        centre = road.lane_centres_m[lane]
-        path = box(front_s, centre - half, front_s + rule.within_m, centre + half)
+        if (not self.config.uses("wave_through") or road.locate is None or lane is None
+                or ego.speed_mps > rule.standing_mps or not observation.junctions_ahead):
+            return None
+        reach = rule.within_m + 0.5 * road.ego_length_m
+        return next((v for v in observation.traffic
+                     if v.speed_mps > rule.standing_mps and (v.lane_s_m is None or v.relation == "alongside")
+                     and math.hypot(v.x_m - ego.x_m, v.y_m - ego.y_m) <= reach + 0.5 * v.length_m
+                     and self._blocks(v, observation, road, lane)), None)
+
+    def _in_the_way(self, observation: Observation, road: TacticalRoad, lane: int) -> VehicleObservation | None:
+        """The nearest standing car off the ego's lanes that :meth:`_blocks` the ego's path."""
+        ego, rule = observation.ego, self.config.wave_through
         nearest: tuple[float, VehicleObservation] | None = None
         for vehicle in observation.traffic:
             distance = math.hypot(vehicle.x_m - ego.x_m, vehicle.y_m - ego.y_m)
             if (vehicle.lane_s_m is not None or vehicle.speed_mps > rule.standing_mps
                     or distance > rule.within_m + 0.5 * (road.ego_length_m + vehicle.length_m)):
                 continue
-            corners = [road.locate(x, y, ego.road_s_m + distance) for x, y in _corners(vehicle)]
-            if Polygon(corners).intersects(path) and (nearest is None or distance < nearest[0]):
+            if (nearest is None or distance < nearest[0]) and self._blocks(vehicle, observation, road, lane):
                 nearest = (distance, vehicle)
         return nearest[1] if nearest else None
+
+    def _blocks(self, vehicle: VehicleObservation, observation: Observation, road: TacticalRoad, lane: int) -> bool:
+        """Whether the car's body reaches into the ego's path (its width and the clearance margin each side of the
+        lane's centre line) within ``within_m`` ahead of the ego's front."""
+        from shapely import Polygon, box  # only when the ego stands in a junction
+
+        ego = observation.ego
+        front_s = ego.road_s_m + 0.5 * road.ego_length_m
+        half = 0.5 * road.ego_width_m + road.clearance_margin_m
+        centre = road.lane_centres_m[lane]
+        path = box(front_s, centre - half, front_s + self.config.wave_through.within_m, centre + half)
+        guess = ego.road_s_m + math.hypot(vehicle.x_m - ego.x_m, vehicle.y_m - ego.y_m)
+        return bool(Polygon([road.locate(x, y, guess) for x, y in _corners(vehicle)]).intersects(path))
 
 
 def _corners(vehicle: VehicleObservation) -> list[tuple[float, float]]:

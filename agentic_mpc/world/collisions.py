@@ -15,6 +15,8 @@ Causes and fault (the rule the metrics use, :data:`EGO_AT_FAULT`):
   history) -- ego at fault;
 - ``ego_struck_leader``: lengthwise contact with the other ahead (the ego ran into it) -- ego at fault;
 - ``rear_ended``: lengthwise contact with the other behind (it ran into the ego) -- not the ego's fault;
+- ``struck_standing_ego``: lengthwise contact with the other ahead while the ego has stood for
+  :data:`STANDING_BEFORE_S` and the other moves (a U-turning car's rear swinging into it) -- not the ego's fault;
 - ``side_swipe_ego_lane_change`` / ``side_swipe_other_lane_change``: sideways contact, named after whose
   lateral motion brought the two together -- the ego's: at fault; the other's: not. Decided in this order:
   a lane change toward the other within the history (only one of them made one); else the larger lateral
@@ -55,7 +57,7 @@ class Observation(Protocol):
     def vehicle(self, vehicle_id: str) -> Any: ...
 
 Cause = Literal["rear_ended", "ego_struck_leader", "side_swipe_ego_lane_change", "side_swipe_other_lane_change",
-                "ego_into_stopped"]
+                "ego_into_stopped", "struck_standing_ego"]
 EGO_AT_FAULT: frozenset[str] = frozenset({"ego_struck_leader", "side_swipe_ego_lane_change", "ego_into_stopped"})
 """The causes that put the ego at fault: it struck, it moved sideways into the other, it hit something still."""
 
@@ -73,6 +75,9 @@ apart can straddle a glancing touch; 0.1 m leaves room for that."""
 SEPARATION_S = 0.5
 """Apart for this long ends an episode: a one-step flicker of the overlap is not a second collision."""
 STOPPED_MPS = 0.1
+STANDING_BEFORE_S = 0.2
+"""Standing this long before a lengthwise contact with a car ahead (five steps of 0.04 s), the ego did not close
+the gap: the other did."""
 
 
 class Footprint(Protocol):
@@ -242,6 +247,9 @@ def classify(history: Sequence[Observation], other_id: str) -> Cause:
     axis = contact_axis(poses[-2] if len(poses) > 1 else None, poses[-1])
     ahead, left = in_ego_frame(*poses[-1])
     if axis == "lengthwise" and (ahead > 0.0 or other_track[-1].relative_lane in (0, None)):
+        if ahead > 0.0 and other_track[-1].speed_mps >= STOPPED_MPS and all(
+                s.speed_mps < STOPPED_MPS for s in ego_track if s.time_s >= now.time_s - STANDING_BEFORE_S):
+            return "struck_standing_ego"  # (the ego stood: the one ahead came to it)
         return "ego_struck_leader" if ahead > 0.0 else "rear_ended"
     return _side_swipe(ego_track, other_track, other_is_left=left > 0.0)
 

@@ -166,3 +166,13 @@ def test_resume_to_v_ref_counts_from_the_last_resume_to_back_at_speed():
     # the run ended 3 s after the resume, short of v_ref: undecided (NaN), not a miss
     assert math.isnan(resume_to_v_ref_s(t[:-1], [15.0, 8.0, 0.0, 0.0, 2.0, 5.0, 9.0], v_ref[:-1]))
     assert math.isnan(resume_to_v_ref_s(t, [15.0] * 8, [15.0] * 8))  # no resume
+
+
+def test_giving_way_at_a_waiting_point_inside_the_junction_is_waiting_not_stuck():
+    """The ego's front 1 m before a left turn's waiting point, 8 m past the line, giving way to oncoming traffic."""
+    inside = JunctionAhead("J", 110.0, 134.0, -7.0, "left", "green", True, False, None, 118.0, 2.0)
+    tracker = StuckTracker()
+    for step in range(200):
+        tracker.update(observation(step * 0.04, 0.0, junctions=[inside]), v_ref_mps=13.0)
+    tracker.finish()
+    assert tracker.longest_s == 0.0

@@ -249,6 +249,15 @@ def test_the_ego_striking_the_slower_car_ahead():
     assert causes(tracker) == [("leader", "ego_struck_leader")] and tracker.at_fault == 1
 
 
+def test_a_car_ahead_coming_back_into_the_standing_ego_struck_it():
+    """Lengthwise contact with a car ahead is the ego's fault only if the ego moved: a U-turning car's rear swung
+    into an ego that had stood (tuning seed 508 of the OpenStreetMap route), here a car reversing into it."""
+    tracker = run(straight(0.0, 0.0), {"reversing": lambda t: (10.0 - 3.0 * t, 0.2)}, until_s=3.0)
+    assert causes(tracker) == [("reversing", "struck_standing_ego")] and tracker.at_fault == 0
+    moving = run(straight(0.0, 2.0), {"reversing": lambda t: (10.0 - 3.0 * t, 0.2)}, until_s=3.0)
+    assert causes(moving) == [("reversing", "ego_struck_leader")]
+
+
 def test_the_ego_drifting_into_the_occupied_left_lane_is_its_side_swipe():
     # 1 m/s to the left; contact at y = 1.4, while the ego's centre is still in its own lane (as SUMO sees it).
     ego: Motion = lambda t: (15.0 * t, min(1.0 * t, 2.0))
