@@ -19,6 +19,11 @@ from agentic_mpc.polylines.polyline import Polyline
 
 CONTINUE_M = 80.0
 """How far beyond a lane's end its line goes on (successors, then straight)."""
+BEHIND_M = 15.0
+"""How far before a lane's start its line reaches back (its one predecessor's end): SUMO puts a vehicle on the lane
+its front is on, and a 12 m truck turning off the ego's lane has its centre up to 6 m before that lane's start;
+projected onto the lane's start, its cover sat ahead of its body, and the ego drove into its rear (tuning seed
+318 of the OpenStreetMap route)."""
 
 
 class LaneTables:
@@ -39,7 +44,7 @@ class LaneTables:
             lane = self.net.getLane(lane_id)
         except KeyError:
             return None
-        points = [(float(x), float(y)) for x, y in lane.getShape()]
+        points = _tail(lane, BEHIND_M) + [(float(x), float(y)) for x, y in lane.getShape()]
         beyond = 0.0
         while beyond < CONTINUE_M:
             onward = lane.getOutgoing()
@@ -55,3 +60,22 @@ class LaneTables:
         points.append((x1 + (x1 - x0) / length * CONTINUE_M, y1 + (y1 - y0) / length * CONTINUE_M))
         path = LanePath(np.array(points), name=lane_id)
         return Polyline(path), path
+
+
+def _tail(lane: Any, length_m: float) -> list[tuple[float, float]]:
+    """The last ``length_m`` of the shape of the lane's one predecessor, without its end point (the lane's
+    start); none if it has none or several."""
+    before = lane.getIncoming()
+    if len(before) != 1:
+        return []
+    shape = [(float(x), float(y)) for x, y in before[0].getShape()]
+    kept, left = [], length_m
+    for a, b in zip(reversed(shape[:-1]), reversed(shape[1:])):
+        step = math.dist(a, b)
+        if step >= left:
+            t = left / step if step > 0 else 0.0
+            kept.append((b[0] + (a[0] - b[0]) * t, b[1] + (a[1] - b[1]) * t))
+            break
+        kept.append(a)
+        left -= step
+    return kept[::-1]

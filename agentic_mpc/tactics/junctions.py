@@ -89,7 +89,7 @@ class JunctionRules:
         """Why the ego stops at this junction's line (or, in it, at its waiting point), or None if it goes (the
         module docstring's rules)."""
         if junction.distance_m < -0.5:  # the front is in the junction: clear it, unless it waits inside
-            return self._wait_inside(junction)
+            return self._wait_inside(junction, time_s)
         config = self.config
         if config.uses("traffic_lights") and junction.signal in ("red", "yellow"):
             if junction.signal == "red":
@@ -112,16 +112,22 @@ class JunctionRules:
             return "giving way (checking the gap)"
         return None
 
-    def _wait_inside(self, junction: JunctionAhead) -> str | None:
+    def _wait_inside(self, junction: JunctionAhead, time_s: float) -> str | None:
         """Inside a junction with a waiting point ahead of the front: wait there while a vehicle with priority
-        arrives at the movements crossing the rest of the way within ``right_of_way.gap_s``."""
-        arrival = junction.inside_foe_arrival_s
+        arrives at the movements crossing the rest of the way within ``right_of_way.gap_s``, and until that gap
+        has stayed open ``right_of_way.gap_held_s`` (as at the line: the foe's arrival went missing for one step,
+        and the ego set off into its way, tuning seed 502)."""
         if (junction.wait_s_m is None or not self.config.uses("right_of_way") or not junction.must_yield
-                or arrival is None or arrival >= self.config.right_of_way.gap_s
                 or junction.stop_s_m - junction.distance_m > junction.wait_s_m):  # past it: clear the junction
             # (not 0.5 m before it: the ego crept up to its stop and on, the foe 1.4 s away: tuning seed 506)
             return None
-        return f"giving way inside the junction (a vehicle with priority arrives in {arrival:.1f} s)"
+        key, arrival = f"{junction.junction_id} inside", junction.inside_foe_arrival_s
+        if arrival is not None and arrival < self.config.right_of_way.gap_s:
+            self._gap_since.pop(key, None)
+            return f"giving way inside the junction (a vehicle with priority arrives in {arrival:.1f} s)"
+        if time_s - self._gap_since.setdefault(key, time_s) < self.config.right_of_way.gap_held_s:
+            return "giving way inside the junction (checking the gap)"
+        return None
 
     def _stoppable(self, junction: JunctionAhead, speed_mps: float) -> bool:
         """Whether the ego stops at the junction's line braking at ``traffic_lights.yellow_stop_decel_mps2``."""

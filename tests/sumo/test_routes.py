@@ -169,3 +169,19 @@ def test_the_agent_turns_at_the_next_junction_through_mcp_and_the_car_drives_the
         assert loop.recorder.metrics.junctions.red_light_violations == 0
     finally:
         loop.close()
+
+
+def test_a_lane_off_the_route_reaches_back_to_where_a_long_vehicle_entering_it_has_its_centre():
+    """SUMO puts a vehicle on the lane its front is on: a 12 m truck turning off has its centre up to 6 m before
+    that lane's start, and its prediction along the lane must start there, not at the lane's start (tuning seed
+    318: the cover sat ahead of the truck's body and the ego drove into its rear)."""
+    from agentic_mpc.sumo.lane_tables import BEHIND_M, LaneTables
+
+    network = RoadNetwork(installed_sumo_file("sumo:tools/game/DRT/osm.net.xml"))
+    turn = network.net.getLane(":cluster_1704693650_1866350919_38920778_671564358_3_0")
+    (before,) = turn.getIncoming()
+    path = LaneTables(network.net).table(turn.getID())[1]
+    x, y = before.getShape()[-1]  # the turn's start
+    assert path.project(x, y) == pytest.approx(BEHIND_M, abs=0.01)
+    bx, by = before.getShape()[-2]  # further back on the lane before it
+    assert 0.0 < path.project(bx, by) < BEHIND_M

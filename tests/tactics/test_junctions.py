@@ -134,7 +134,9 @@ def test_a_turn_with_a_waiting_point_goes_in_and_waits_there_for_a_gap_in_the_on
     assert waiting.stop_line_s_m == pytest.approx(102.6 - 3.0 + 8.0)
     assert waiting.reason.startswith("giving way inside the junction")
     assert waiting.speed_cap_mps == pytest.approx(4.0)  # braking at 2 m/s² for the point, 1 m before it
-    assert decide(rules, 0.0, inside(-6.5, 9.0)).stop_line_s_m is None  # a gap: it turns
+    checking = decide(rules, 0.0, inside(-6.5, 9.0), time_s=2.0)
+    assert checking.reason.startswith("giving way inside the junction (checking the gap)")
+    assert decide(rules, 0.0, inside(-6.5, 9.0), time_s=3.0).stop_line_s_m is None  # a gap held 1 s: it turns
     assert decide(rules, 0.0, inside(-6.5, None, signal="red", must_yield=False)).stop_line_s_m is None  # clearing
     assert decide(rules, 1.0, inside(-7.8, 1.0)).stop_line_s_m is not None  # crept up to 0.2 m before it: waits
     assert decide(rules, 5.0, inside(-9.0, 1.0)).stop_line_s_m is None  # past the waiting point: it clears
