@@ -72,11 +72,11 @@ class JunctionRules:
                 self._stops_for_yellow[junction.junction_id] = junction.distance_m > 0.0 and self._stoppable(
                     junction, speed)
         for junction in observation.junctions_ahead:
-            why = self._stop_for(junction, speed, observation.time_s)
-            if why is None:
+            stop = self._stop_for(junction, speed, observation.time_s)
+            if stop is None:
                 continue
-            stop_s = junction.stop_s_m if junction.distance_m >= -0.5 else junction.wait_s_m
-            distance = stop_s - front_s  # type: ignore[operator]
+            why, stop_s = stop
+            distance = stop_s - front_s
             rate = self.config.traffic_lights.stop_decel_mps2
             room = max(0.0, distance - self.config.traffic_lights.stop_margin_m)
             stop_cap = math.sqrt(2.0 * rate * room)
@@ -85,34 +85,36 @@ class JunctionRules:
             return JunctionDecision(cap, stop_s, reason)
         return JunctionDecision(cap, None, reason) if cap is not None else NO_DECISION
 
-    def _stop_for(self, junction: JunctionAhead, speed_mps: float, time_s: float) -> str | None:
-        """Why the ego stops at this junction's line (or, in it, at its waiting point), or None if it goes (the
-        module docstring's rules)."""
+    def _stop_for(self, junction: JunctionAhead, speed_mps: float, time_s: float) -> tuple[str, float] | None:
+        """Why the ego stops at this junction and where (its line, or its waiting point inside), or None if it
+        goes (the module docstring's rules)."""
         if junction.distance_m < -0.5:  # the front is in the junction: clear it, unless it waits inside
             return self._wait_inside(junction, time_s)
         config = self.config
         if config.uses("traffic_lights") and junction.signal in ("red", "yellow"):
             if junction.signal == "red":
-                return "red light"
+                return "red light", junction.stop_s_m
             if self._stops_for_yellow.get(junction.junction_id) or self._stoppable(junction, speed_mps):
-                return "yellow light"
+                return "yellow light", junction.stop_s_m
         if not config.uses("right_of_way") or not junction.must_yield:
             return None
         if junction.stop_sign and junction.junction_id not in self._stopped_at:
             if junction.distance_m <= STOPPED_WITHIN_M and speed_mps <= STANDING_MPS:
                 self._stopped_at.add(junction.junction_id)
             else:
-                return "stop sign"
+                return "stop sign", junction.stop_s_m
         arrival = junction.foe_arrival_s
         if arrival is not None and arrival < config.right_of_way.gap_s:
             self._gap_since.pop(junction.junction_id, None)
-            return f"giving way (a vehicle with priority arrives in {arrival:.1f} s)"
+            return f"giving way (a vehicle with priority arrives in {arrival:.1f} s)", junction.stop_s_m
         since = self._gap_since.setdefault(junction.junction_id, time_s)
         if time_s - since < config.right_of_way.gap_held_s and junction.distance_m < GAP_CHECKED_WITHIN_M:
-            return "giving way (checking the gap)"
-        return None
+            return "giving way (checking the gap)", junction.stop_s_m
+        # the line is clear: where it waits inside, it comes in at a speed it can stop from there (unseen seed
+        # 545 came in at 9.3 m/s, 10 m before its waiting point, with oncoming traffic 2 s away)
+        return self._wait_inside(junction, time_s)
 
-    def _wait_inside(self, junction: JunctionAhead, time_s: float) -> str | None:
+    def _wait_inside(self, junction: JunctionAhead, time_s: float) -> tuple[str, float] | None:
         """Inside a junction with a waiting point ahead of the front: wait there while a vehicle with priority
         arrives at the movements crossing the rest of the way within ``right_of_way.gap_s``, and until that gap
         has stayed open ``right_of_way.gap_held_s`` (as at the line: the foe's arrival went missing for one step,
@@ -122,11 +124,12 @@ class JunctionRules:
             # (not 0.5 m before it: the ego crept up to its stop and on, the foe 1.4 s away: tuning seed 506)
             return None
         key, arrival = f"{junction.junction_id} inside", junction.inside_foe_arrival_s
+        wait_s = junction.wait_s_m
         if arrival is not None and arrival < self.config.right_of_way.gap_s:
             self._gap_since.pop(key, None)
-            return f"giving way inside the junction (a vehicle with priority arrives in {arrival:.1f} s)"
+            return f"giving way inside the junction (a vehicle with priority arrives in {arrival:.1f} s)", wait_s
         if time_s - self._gap_since.setdefault(key, time_s) < self.config.right_of_way.gap_held_s:
-            return "giving way inside the junction (checking the gap)"
+            return "giving way inside the junction (checking the gap)", wait_s
         return None
 
     def _stoppable(self, junction: JunctionAhead, speed_mps: float) -> bool:

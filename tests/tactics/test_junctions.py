@@ -129,7 +129,10 @@ def inside(distance_m: float, inside_arrival_s: float | None, *, signal: str = "
 def test_a_turn_with_a_waiting_point_goes_in_and_waits_there_for_a_gap_in_the_oncoming_traffic():
     rules = JunctionRules(TacticsConfig())
     decide(rules, 0.0, inside(2.0, 1.0))  # oncoming traffic arriving: no reason to wait at the line, once the
-    assert decide(rules, 0.0, inside(2.0, 1.0), time_s=1.5).stop_line_s_m is None  # (entry) gap has held
+    at_line = decide(rules, 0.0, inside(2.0, 1.0), time_s=1.5)  # (entry) gap has held: in, to the waiting point
+    assert at_line.stop_line_s_m == pytest.approx(102.6 + 2.0 + 8.0) and at_line.speed_cap_mps > 4.0
+    fast = decide(JunctionRules(TacticsConfig()), 9.3, inside(20.0, 2.0), time_s=5.0)
+    assert fast.speed_cap_mps == pytest.approx((2.0 * 2.0 * 27.0) ** 0.5)  # it comes in able to stop there
     waiting = decide(rules, 3.0, inside(-3.0, 1.0))  # in the junction, 5 m before the waiting point
     assert waiting.stop_line_s_m == pytest.approx(102.6 - 3.0 + 8.0)
     assert waiting.reason.startswith("giving way inside the junction")
