@@ -10,8 +10,6 @@ offers one gets the same rules. docs/traffic.md says what each rule does and why
 from __future__ import annotations
 
 import json
-import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,28 +18,9 @@ from agentic_mpc.tactics.covers import disc_cover
 from agentic_mpc.tactics.detour import Detour, Passing
 from agentic_mpc.tactics.junctions import JunctionDecision, JunctionRules
 from agentic_mpc.tactics.queues import Queue, find_queues
+from agentic_mpc.tactics.road import TacticalRoad
 from agentic_mpc.tactics.wave_through import NEAR_LINE_M, Waved, WaveThrough
 from agentic_mpc.world.observation import Observation
-
-
-@dataclass(frozen=True, slots=True)
-class TacticalRoad:
-    """What the tactics need of a world's road and ego: the lanes' centre lines (each lane's offset left of the
-    road's reference line, by lane index) and the sizes that make the discs J0 keeps the ego's centre out of."""
-
-    lane_centres_m: tuple[float, ...]
-    ego_length_m: float
-    ego_width_m: float
-    clearance_margin_m: float = 0.5
-    max_discs_per_vehicle: int = 8
-    range_ahead_m: float = 80.0
-    speed_zones: tuple[tuple[float, float, float], ...] = ()
-    """(start, end along the road, speed limit) of the route's stretches slower than the road's limit."""
-    speed_limit_mps: float = math.inf
-    """The road's limit: a zone's cap at or above it changes nothing (and is not reported)."""
-    locate: Callable[[float, float, float], tuple[float, float]] | None = None
-    """(x, y, an along-road guess) -> (along-road position, offset left of the road's reference line) of the
-    nearest road point near the guess; None: the rules that need the road's shape (``wave_through``) are off."""
 
 
 @dataclass(frozen=True, slots=True)

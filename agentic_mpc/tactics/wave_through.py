@@ -19,13 +19,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from agentic_mpc.tactics.config import TacticsConfig
+from agentic_mpc.tactics.road import TacticalRoad
 from agentic_mpc.world.observation import Observation, VehicleObservation
-
-if TYPE_CHECKING:
-    from agentic_mpc.tactics.layer import TacticalRoad
 
 NEAR_LINE_M = 5.0
 """The ego waves only in a junction: its front past the stop line of one, or this close to it; and never while
@@ -100,13 +97,14 @@ class WaveThrough:
         return self.holding
 
     def crossing(self, observation: Observation, road: TacticalRoad, lane: int | None) -> VehicleObservation | None:
-        """A car moving across the ego's path (:meth:`_blocks`) while the ego stands on a route with junctions: the
-        ego does not set off until it has gone. J0 alone let the ego creep at 0.6 m/s into the rear of an
-        oncoming car that made a U-turn in front of it just past a junction (tuning seed 508: its body swings round
-        faster than its lane predicts)."""
+        """A car moving across the ego's path (:meth:`_blocks`) while the ego stands or sets off (slower than
+        ``setting_off_mps``) on a route with junctions: the ego does not go on until it has gone. J0 alone let the
+        ego creep at 0.6 m/s into the rear of an oncoming car that made a U-turn in front of it just past a
+        junction (tuning seed 508: its body swings round faster than its lane predicts); and, setting off at
+        0.8 m/s behind one U-turning car, into the next (unseen seed 576)."""
         ego, rule = observation.ego, self.config.wave_through
         if (not self.config.uses("wave_through") or road.locate is None or lane is None
-                or ego.speed_mps > rule.standing_mps or not observation.junctions_ahead):
+                or ego.speed_mps > rule.setting_off_mps or not observation.junctions_ahead):
             return None
         reach = rule.within_m + 0.5 * road.ego_length_m
         return next((v for v in observation.traffic
