@@ -99,8 +99,6 @@ class WaveThrough(FrozenConfig):
     after_s: float = Field(3.0, ge=0, le=60.0, description="how long both have stood before the ego waves")
     within_m: float = Field(8.0, gt=0, le=30.0, description="how far ahead of the ego's front the car may stand")
     standing_mps: float = Field(0.2, ge=0, le=2.0, description="slower than this counts as standing")
-    setting_off_mps: float = Field(
-        3.0, ge=0, le=10.0, description="slower than this, the ego does not go on while a car moves across its path")
 
 
 class TacticsConfig(FrozenConfig):

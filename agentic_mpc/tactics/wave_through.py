@@ -97,14 +97,13 @@ class WaveThrough:
         return self.holding
 
     def crossing(self, observation: Observation, road: TacticalRoad, lane: int | None) -> VehicleObservation | None:
-        """A car moving across the ego's path (:meth:`_blocks`) while the ego stands or sets off (slower than
-        ``setting_off_mps``) on a route with junctions: the ego does not go on until it has gone. J0 alone let the
-        ego creep at 0.6 m/s into the rear of an oncoming car that made a U-turn in front of it just past a
-        junction (tuning seed 508: its body swings round faster than its lane predicts); and, setting off at
-        0.8 m/s behind one U-turning car, into the next (unseen seed 576)."""
+        """A car moving across the ego's path (:meth:`_blocks`) while the ego stands on a route with junctions: the
+        ego does not set off until it has gone. J0 alone let the ego creep at 0.6 m/s into the rear of an
+        oncoming car that made a U-turn in front of it just past a junction (tuning seed 508: its body swings round
+        faster than its lane predicts)."""
         ego, rule = observation.ego, self.config.wave_through
         if (not self.config.uses("wave_through") or road.locate is None or lane is None
-                or ego.speed_mps > rule.setting_off_mps or not observation.junctions_ahead):
+                or ego.speed_mps > rule.standing_mps or not observation.junctions_ahead):
             return None
         reach = rule.within_m + 0.5 * road.ego_length_m
         return next((v for v in observation.traffic
