@@ -12,7 +12,8 @@ of its way (:meth:`WaveThrough.hold`): a stop at its front, as the junction rule
 
 Only cars off the ego's lanes (crossing, turning in, oncoming) are waved: one ahead on the ego's own lane is a
 leader, not a car waiting for the ego. Never while the junction rules hold the ego at a line (a red light, giving
-way): that wait is the ego's, not a mutual one.
+way): that wait is the ego's, not a mutual one. The same geometry keeps a standing ego from setting off while a car
+moves across its path (:meth:`WaveThrough.crossing`).
 """
 
 from __future__ import annotations
