@@ -78,6 +78,7 @@ class RouteJunctions:
         pieces = road.pieces
         internal_junctions = _internal_junctions(road.network.path)
         links: dict[str, Any] = {}  # per internal lane of the route: the ego's connection through that junction
+        across = "right" if road.network.lefthand else "left"  # the turn across the oncoming traffic
         k = 0
         while k < len(pieces):
             piece, start = pieces[k]
@@ -98,12 +99,12 @@ class RouteJunctions:
             tls = connection.getTLSID() or ""
             if not tls and not any(bridge.internal_foes(lane) for lane in internal):
                 continue  # the road just continues here
-            across = "right" if road.network.lefthand else "left"  # a turn across the oncoming traffic
+            direction = DIRECTIONS.get(connection.getDirection(), "straight")
             waiting = _waiting_point(net, internal, road.spans[internal[1]].start_s_m if len(internal) > 1 else 0.0,
-                                     internal_junctions) if DIRECTIONS.get(connection.getDirection()) == across else ()
+                                     internal_junctions) if direction == across else ()
             links.update((lane, connection) for lane in internal)
             junctions.append(RouteJunction(
-                pieces[k - 1][0].junction_id or "", stop_s, exit_s, DIRECTIONS.get(connection.getDirection(), "straight"),
+                pieces[k - 1][0].junction_id or "", stop_s, exit_s, direction,
                 tuple(internal), tls, connection.getTLLinkIndex() if tls else -1, connection.getState(), *waiting))
         self.junctions: tuple[RouteJunction, ...] = tuple(junctions)
         self._route_edges = frozenset(road.edge_ids)

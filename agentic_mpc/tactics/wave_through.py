@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from agentic_mpc.tactics.config import TacticsConfig
 from agentic_mpc.tactics.road import TacticalRoad
@@ -61,8 +62,8 @@ class WaveThrough:
         """The car to wave through this step (once per car), or None. ``lane``: the lane J1 follows."""
         rule = self.config.wave_through
         ego = observation.ego
-        if (not self.config.uses("wave_through") or road.locate is None or lane is None or held_at_line
-                or self.holding or ego.speed_mps > rule.standing_mps):
+        if (lane is None or not self._in_force(road) or held_at_line or self.holding
+                or ego.speed_mps > rule.standing_mps):
             self._blocker = None
             return None
         junction = next((j for j in observation.junctions_ahead if j.distance_m <= NEAR_LINE_M), None)
@@ -88,9 +89,8 @@ class WaveThrough:
             return False
         rule, ego = self.config.wave_through, observation.ego
         car = next((v for v in observation.traffic if v.id == self.last.vehicle_id), None)
-        reach = rule.within_m + 0.5 * road.ego_length_m + (0.5 * car.length_m if car is not None else 0.0)
         if (car is None or lane is None or car.lane_s_m is not None and car.relation == "ahead" and car.gap_m > (
-                LEADER_CLEAR_M) or math.hypot(car.x_m - ego.x_m, car.y_m - ego.y_m) > reach):
+                LEADER_CLEAR_M) or not self._within_reach(car, ego, road)):
             self.holding = False  # gone, clear ahead in the ego's lane (a leader now) or out of its way
         elif car.speed_mps <= rule.standing_mps and car.lane_s_m is None and not self._blocks(
                 car, observation, road, lane):
@@ -103,27 +103,34 @@ class WaveThrough:
         oncoming car that made a U-turn in front of it just past a junction (tuning seed 508: its body swings round
         faster than its lane predicts)."""
         ego, rule = observation.ego, self.config.wave_through
-        if (not self.config.uses("wave_through") or road.locate is None or lane is None
-                or ego.speed_mps > rule.standing_mps or not observation.junctions_ahead):
+        if (lane is None or not self._in_force(road) or ego.speed_mps > rule.standing_mps
+                or not observation.junctions_ahead):
             return None
-        reach = rule.within_m + 0.5 * road.ego_length_m
         return next((v for v in observation.traffic
                      if v.speed_mps > rule.standing_mps and (v.lane_s_m is None or v.relation == "alongside")
-                     and math.hypot(v.x_m - ego.x_m, v.y_m - ego.y_m) <= reach + 0.5 * v.length_m
-                     and self._blocks(v, observation, road, lane)), None)
+                     and self._within_reach(v, ego, road) and self._blocks(v, observation, road, lane)), None)
 
     def _in_the_way(self, observation: Observation, road: TacticalRoad, lane: int) -> VehicleObservation | None:
         """The nearest standing car off the ego's lanes that :meth:`_blocks` the ego's path."""
         ego, rule = observation.ego, self.config.wave_through
         nearest: tuple[float, VehicleObservation] | None = None
         for vehicle in observation.traffic:
-            distance = math.hypot(vehicle.x_m - ego.x_m, vehicle.y_m - ego.y_m)
             if (vehicle.lane_s_m is not None or vehicle.speed_mps > rule.standing_mps
-                    or distance > rule.within_m + 0.5 * (road.ego_length_m + vehicle.length_m)):
+                    or not self._within_reach(vehicle, ego, road)):
                 continue
+            distance = math.hypot(vehicle.x_m - ego.x_m, vehicle.y_m - ego.y_m)
             if (nearest is None or distance < nearest[0]) and self._blocks(vehicle, observation, road, lane):
                 nearest = (distance, vehicle)
         return nearest[1] if nearest else None
+
+    def _in_force(self, road: TacticalRoad) -> bool:
+        """The rule is in force and the world gives the road's shape (``TacticalRoad.locate``)."""
+        return self.config.uses("wave_through") and road.locate is not None
+
+    def _within_reach(self, vehicle: VehicleObservation, ego: Any, road: TacticalRoad) -> bool:
+        """Whether the car's centre is within ``within_m`` of the ego's front plus its half length."""
+        reach = self.config.wave_through.within_m + 0.5 * (road.ego_length_m + vehicle.length_m)
+        return math.hypot(vehicle.x_m - ego.x_m, vehicle.y_m - ego.y_m) <= reach
 
     def _blocks(self, vehicle: VehicleObservation, observation: Observation, road: TacticalRoad, lane: int) -> bool:
         """Whether the car's body reaches into the ego's path (its width and the clearance margin each side of the
