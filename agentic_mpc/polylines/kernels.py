@@ -8,7 +8,8 @@ the discs alone. One compiled call does the same work.
 Same results to the last bit as the NumPy they replace (:meth:`~agentic_mpc.polylines.polyline.Polyline.at` and the
 sums of :mod:`~agentic_mpc.sumo.surroundings`): the same operations in the same order, each rounded (Numba
 without ``fastmath`` neither fuses a multiply and an add nor reorders), the clamp and the segment search as
-NumPy's (``tests/sumo/test_kernels.py`` compares them).
+NumPy's (``tests/sumo/test_kernels.py`` compares them). :func:`body_disc_centres` replaces no NumPy: its behaviour
+is pinned by ``tests/sumo/test_route_prediction.py``.
 """
 
 from __future__ import annotations
@@ -95,6 +96,63 @@ def _discs(xy, s_table, tangents, inner_s, length, steps, rows, out, headings): 
 
 
 @numba.njit(**_JIT)
+def _chord(xy, s_table, tangents, inner_s, length, front_s, lateral, body, rear_s_now, rear_x, rear_y):  # type: ignore[no-untyped-def]
+    # The body's centre and heading with its front at front_s: the rear ``body`` behind on the line (before the
+    # line's start, on the straight from where it is now to that start), the heading from rear to front.
+    fx, fy, tx, ty = _point(xy, s_table, tangents, inner_s, length, front_s)
+    fx = fx + lateral * -ty
+    fy = fy + lateral * tx
+    rear_s = front_s - body
+    if rear_s >= 0.0 or not rear_s_now < 0.0:
+        bx, by, ux, uy = _point(xy, s_table, tangents, inner_s, length, rear_s)
+        bx = bx + lateral * -uy
+        by = by + lateral * ux
+    else:
+        start_x, start_y, _, _ = _point(xy, s_table, tangents, inner_s, length, 0.0)
+        f = rear_s / rear_s_now
+        bx = start_x + (rear_x - start_x) * f
+        by = start_y + (rear_y - start_y) * f
+    hx, hy = fx - bx, fy - by
+    d = math.sqrt(hx * hx + hy * hy)
+    if d > 1e-9:
+        hx, hy = hx / d, hy / d
+    else:
+        hx, hy = tx, ty
+    return fx - 0.5 * body * hx, fy - 0.5 * body * hy, hx, hy
+
+
+@numba.njit(**_JIT)
+def _bodies(xy, s_table, tangents, inner_s, length, steps, rows, out, headings):  # type: ignore[no-untyped-def]
+    for n in range(rows.shape[0]):
+        speed, front_s, lateral, offset, body = rows[n, 0], rows[n, 1], rows[n, 2], rows[n, 3], rows[n, 4]
+        x_now, y_now, heading_now, accel = rows[n, 5], rows[n, 6], rows[n, 7], rows[n, 8]
+        # braking: it stops where it would at this deceleration (a car slowing to its waiting point stays there)
+        standing_from_s = speed / -accel if accel < 0.0 else math.inf
+        ch, sh = math.cos(heading_now), math.sin(heading_now)
+        rear_x, rear_y = x_now - 0.5 * body * ch, y_now - 0.5 * body * sh
+        rear_s_now = front_s - body
+        # The pose now from the line and as seen: the difference is faded out over the first body length driven
+        x0, y0, h0x, h0y = _chord(xy, s_table, tangents, inner_s, length, front_s, lateral, body, rear_s_now,
+                                  rear_x, rear_y)
+        dx, dy = x_now - x0, y_now - y0
+        turn = math.atan2(h0x * sh - h0y * ch, h0x * ch + h0y * sh)
+        for k in range(steps.shape[0]):
+            t = min(steps[k], standing_from_s)
+            driven = speed * t + 0.5 * accel * t * t if accel < 0.0 else speed * t
+            x, y, hx, hy = _chord(xy, s_table, tangents, inner_s, length, front_s + driven, lateral, body,
+                                  rear_s_now, rear_x, rear_y)
+            w = 1.0 - driven / body if body > 0.0 else 0.0
+            if w > 0.0:
+                x, y = x + w * dx, y + w * dy
+                c, s = math.cos(w * turn), math.sin(w * turn)
+                hx, hy = hx * c - hy * s, hy * c + hx * s
+            out[n, k, 0] = x + offset * hx
+            out[n, k, 1] = y + offset * hy
+            headings[n, k, 0] = hx
+            headings[n, k, 1] = hy
+
+
+@numba.njit(**_JIT)
 def _sides(xy, s_table, tangents, inner_s, length, start, step, steps, left, right, out):  # type: ignore[no-untyped-def]
     for k in range(steps.shape[0]):
         x, y, tx, ty = _point(xy, s_table, tangents, inner_s, length, start + step * steps[k])
@@ -164,6 +222,22 @@ def disc_centres(line: Polyline, steps: np.ndarray, rows: np.ndarray) -> tuple[n
     the vehicle's angle to its lane at ``lane_s`` (NaN: not turned, the lane's tangent)."""
     out, headings = np.empty((rows.shape[0], steps.shape[0], 2)), np.empty((rows.shape[0], steps.shape[0], 2))
     _discs(line.xy, line.s, line.tangents, line.inner_s, line.length_m, steps, rows, out, headings)
+    return out, headings
+
+
+def body_disc_centres(line: Polyline, steps: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (discs, H, 2) and headings (discs, H, 2) of discs around vehicles whose front drives along ``line``
+    as SUMO moves them, one row of ``rows`` each: (speed, the front's arc length, its lateral offset, the disc's
+    offset along the heading from the centre, the body's length, the centre's x and y and the heading now, the
+    acceleration). Stage k: the front at ``front_s`` plus the way driven by ``steps[k]`` at that speed (braking, at
+    that deceleration until it stands: a car slowing for its waiting point stops there), the rear a body length behind it on the line (before the
+    line's start: on the straight from where it is now), the heading from rear to front, the centre half a length
+    behind the front; plus the difference between that pose and the one seen now, faded out over the first body
+    length driven (a standing vehicle stays exactly where it is). SUMO turns a vehicle about so (its angle is from
+    its back to its front position): on a tight turn the body cuts the corner, which discs along the lane's
+    tangent missed by a metre in a U-turn."""
+    out, headings = np.empty((rows.shape[0], steps.shape[0], 2)), np.empty((rows.shape[0], steps.shape[0], 2))
+    _bodies(line.xy, line.s, line.tangents, line.inner_s, line.length_m, steps, rows, out, headings)
     return out, headings
 
 

@@ -4,7 +4,9 @@ On a route through junctions most traffic is on lanes the ego's road does not co
 crossing streets, the junctions' internal lanes. Predicted at constant heading, a car on the oncoming lane of a
 slightly curved street drifts into the ego's lane within the horizon and holds the ego (measured on SUMO's
 ``cross``); along its lane it does not. Each lane is continued by its successors while it has exactly one (an
-internal lane always has: it leads to its outgoing lane), then straight on, so a prediction never runs off it.
+internal lane always has: it leads to its outgoing lane); where it has several, by the connection to the street
+the vehicle's route takes next (a car about to make a U-turn is predicted round it, not straight past the ego),
+else straight on, so a prediction never runs off it.
 """
 
 from __future__ import annotations
@@ -15,7 +17,9 @@ from typing import Any
 import numpy as np
 
 from agentic_mpc.geometry import LanePath
+from agentic_mpc.polylines.kernels import locate
 from agentic_mpc.polylines.polyline import Polyline
+from agentic_mpc.world.observation import VehicleObservation
 
 CONTINUE_M = 80.0
 """How far beyond a lane's end its line goes on (successors, then straight)."""
@@ -31,15 +35,33 @@ class LaneTables:
 
     def __init__(self, net: Any) -> None:
         self.net = net
-        self._tables: dict[str, tuple[Polyline, LanePath] | None] = {}
+        self._tables: dict[tuple[str, str], tuple[Polyline, LanePath] | None] = {}
 
-    def table(self, lane_id: str) -> tuple[Polyline, LanePath] | None:
-        """The lane's line continued beyond its end (None: no such lane)."""
-        if lane_id not in self._tables:
-            self._tables[lane_id] = self._build(lane_id)
-        return self._tables[lane_id]
+    def table(self, lane_id: str, next_edge_id: str = "") -> tuple[Polyline, LanePath] | None:
+        """The lane's line continued beyond its end, through the junction towards ``next_edge_id`` where the lane
+        has several ways on (None: no such lane)."""
+        key = (lane_id, next_edge_id)
+        if key not in self._tables:
+            self._tables[key] = self._build(lane_id, next_edge_id)
+        return self._tables[key]
 
-    def _build(self, lane_id: str) -> tuple[Polyline, LanePath] | None:
+    def place(self, vehicle: VehicleObservation) -> tuple[Polyline, tuple[float, ...]] | None:
+        """The line ``vehicle``'s front drives along (its lane, on the way its route goes) and where it is on it:
+        (speed, the front's arc length, its lateral offset, length, x, y, heading, acceleration), the row of
+        :func:`~agentic_mpc.polylines.kernels.body_disc_centres` without the disc's offset. None off every lane."""
+        found = self.table(vehicle.lane_id, vehicle.next_edge_id) if vehicle.lane_id else None
+        if found is None:
+            return None
+        line, path = found
+        half = 0.5 * vehicle.length_m
+        front_x = vehicle.x_m + half * math.cos(vehicle.heading_rad)
+        front_y = vehicle.y_m + half * math.sin(vehicle.heading_rad)
+        front_s = path.project(front_x, front_y)
+        lateral = locate(line, front_x, front_y, front_s)[1]
+        return line, (vehicle.speed_mps, front_s, lateral, vehicle.length_m, vehicle.x_m, vehicle.y_m,
+                      vehicle.heading_rad, vehicle.accel_mps2)
+
+    def _build(self, lane_id: str, next_edge_id: str) -> tuple[Polyline, LanePath] | None:
         try:
             lane = self.net.getLane(lane_id)
         except KeyError:
@@ -48,6 +70,9 @@ class LaneTables:
         beyond = 0.0
         while beyond < CONTINUE_M:
             onward = lane.getOutgoing()
+            if len(onward) > 1:  # the one to the street its route takes (the first, if several lanes go there)
+                onward = [c for c in onward if c.getTo().getID() == next_edge_id][:1]
+                next_edge_id = ""  # beyond the next street: its route is not read
             if len(onward) != 1:
                 break
             via = onward[0].getViaLaneID()

@@ -144,7 +144,7 @@ class ObservationBuilder:
         ego_order = lanes[ego.lane_id][5] if on_road else None
         cos, sin = math.cos, math.sin
         for state in others:
-            vehicle_id, x, y, heading, speed, lane_id, lane_index, lane_pos, lateral_offset = state
+            vehicle_id, x, y, heading, speed, lane_id, lane_index, lane_pos, lateral_offset, next_edge, accel = state
             sizes = known.get(vehicle_id)
             if sizes is None:
                 sizes = known[vehicle_id] = self._sizes(vehicle_id)
@@ -173,7 +173,7 @@ class ObservationBuilder:
             vehicle = VehicleObservation(
                 vehicle_id, info.type_id, info.vclass, x, y, heading, speed, speed * cos(heading),
                 speed * sin(heading), lane_id, lane_index, role, edge, info.length_m, info.width_m, s, offset, gap,
-                relation, relative, lane_s, lateral_offset,
+                relation, relative, lane_s, lateral_offset, next_edge, accel,
             )
             traffic.append(vehicle)
             reach = 0.5 * (ego_diagonal + diagonal)
@@ -215,7 +215,7 @@ class ObservationBuilder:
                     state.lane_id, state.lane_index, self._role(state.lane_id, state.lane_index),
                     self._edge(state.lane_id), info.length_m, info.width_m, s, offset, gap,
                     self._relation(offset, gap), self._relative_lane(ego_lane, state.lane_id, state.lane_index),
-                    lane_s, lateral,
+                    lane_s, lateral, state.next_edge_id, state.accel_mps2,
                 )
             along = self._along_speed(state, vehicle.road_s_m)
             # d|offset|/dt = sign(offset) * (v_other - v_ego) along the road; closing is its negative.

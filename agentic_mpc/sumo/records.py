@@ -32,6 +32,11 @@ class VehicleState(NamedTuple):
     """SUMO's lane position of the FRONT bumper (nominal lane length units)."""
     lateral_offset_m: float
     """Offset of the centre from the lane centre (non-zero only with the sublane model or moveToXY)."""
+    next_edge_id: str = ""
+    """The edge its route takes after the one it is on or leaving ('' at its route's end): the way it will
+    leave the junction ahead."""
+    accel_mps2: float = 0.0
+    """Its acceleration in the last step (negative: braking)."""
 
 
 class VehicleInfo(NamedTuple):

@@ -1,7 +1,10 @@
 """Observation -> the controller's :class:`Surroundings` (other road users as discs, road edges as lines).
 
 Prediction: each nearby vehicle keeps its speed along its own lane over the horizon (the brief's model;
-SUMO's vehicles do change lanes and brake, which the next step's observation then shows).
+SUMO's vehicles do change lanes and brake, which the next step's observation then shows). On a route, a vehicle
+on a lane that is not the route's (a crossing street, oncoming, a junction's inside) drives along its lane and on
+the way its route goes, braking as it brakes now, its body turned as SUMO turns it
+(:meth:`~agentic_mpc.sumo.lane_tables.LaneTables.place`, :func:`~agentic_mpc.polylines.kernels.body_disc_centres`).
 
 Shape: the controller treats the ego as a point (its centre), so each vehicle is inflated by the ego: the ego's
 centre must avoid a (L + L_ego) x 2 half_w rectangle round the vehicle's centre, covered by a row of discs along its
@@ -38,7 +41,8 @@ from functools import partial
 
 import numpy as np
 
-from agentic_mpc.polylines.kernels import disc_centres, locate, points_at, side_lines
+from agentic_mpc.polylines.kernels import body_disc_centres, disc_centres, locate, points_at, side_lines
+from agentic_mpc.polylines.polyline import Polyline
 from agentic_mpc.primitives import LaneLines, Leader, MovingDisc, Surroundings, TrackingReference
 from agentic_mpc.sumo.config import SurroundingsConfig
 from agentic_mpc.sumo.lane_tables import LaneTables
@@ -220,29 +224,27 @@ class SurroundingsBuilder:
 
     def _discs_along_their_lanes(self, discs: list[MovingDisc], items: list[tuple[VehicleObservation, DiscCover, float]]
                                  ) -> list[tuple[VehicleObservation, DiscCover, float]]:
-        """On a route: the discs of vehicles on lanes that are not the road's, predicted along their own lanes
-        (:mod:`agentic_mpc.sumo.lane_tables`); returns those on no lane (predicted at constant heading)."""
-        per_lane: dict[str, list[tuple[float, float, float, float, float]]] = {}
-        radii: dict[str, list[tuple[float, float]]] = {}
+        """On a route: the discs of vehicles on lanes that are not the road's, their fronts predicted along their own
+        lanes and on through the junction the way their routes go (:mod:`agentic_mpc.sumo.lane_tables`), their bodies
+        turned as SUMO turns them (:func:`~agentic_mpc.polylines.kernels.body_disc_centres`); returns those on no
+        lane (predicted at constant heading)."""
+        per_line: dict[int, tuple[Polyline, list[tuple[float, ...]], list[tuple[float, float]]]] = {}
         rest = []
         for vehicle, cover, headway in items:
-            found = self._other_lanes.table(vehicle.lane_id) if vehicle.lane_id else None
-            if found is None:
+            placed = self._other_lanes.place(vehicle)
+            if placed is None:
                 rest.append((vehicle, cover, headway))
                 continue
-            path = found[1]
-            lane_s = path.project(vehicle.x_m, vehicle.y_m)
-            lateral = locate(found[0], vehicle.x_m, vehicle.y_m, lane_s)[1]
+            line, (speed, front_s, lateral, *body) = placed
+            _, rows, radii = per_line.setdefault(id(line), (line, [], []))
             body_radius = self._cover(vehicle, physical=True).radius_m
             for offset in self._offsets(vehicle, cover, headway):
-                per_lane.setdefault(vehicle.lane_id, []).append(
-                    (vehicle.speed_mps, lane_s, lateral, offset, vehicle.heading_rad))
-                radii.setdefault(vehicle.lane_id, []).append((cover.radius_m, body_radius))
-        for lane_id, rows in per_lane.items():
-            table = self._other_lanes.table(lane_id)[0]
-            centres, headings = disc_centres(table, self._steps, np.array(rows, dtype=np.float64))
+                rows.append((speed, front_s, lateral, offset, *body))
+                radii.append((cover.radius_m, body_radius))
+        for line, rows, radii in per_line.values():
+            centres, headings = body_disc_centres(line, self._steps, np.array(rows, dtype=np.float64))
             discs.extend(MovingDisc(c, radius, h, self._ego_half_extents_m, body)
-                         for c, (radius, body), h in zip(centres, radii[lane_id], headings, strict=True))
+                         for c, (radius, body), h in zip(centres, radii, headings, strict=True))
         return rest
 
     def _offsets(self, vehicle: VehicleObservation, cover: DiscCover, headway: float) -> tuple[float, ...] | list[float]:

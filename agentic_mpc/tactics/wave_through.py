@@ -100,8 +100,8 @@ class WaveThrough:
     def crossing(self, observation: Observation, road: TacticalRoad, lane: int | None) -> VehicleObservation | None:
         """A car moving across the ego's path (:meth:`_blocks`) while the ego stands on a route with junctions: the
         ego does not set off until it has gone. J0 alone let the ego creep at 0.6 m/s into the rear of an
-        oncoming car that made a U-turn in front of it just past a junction (tuning seed 508: its body swings round
-        faster than its lane predicts)."""
+        oncoming car that made a U-turn in front of it just past a junction (tuning seed 508, when a body was still
+        predicted along its lane's tangent, not cutting the corner as SUMO turns it)."""
         ego, rule = observation.ego, self.config.wave_through
         if (lane is None or not self._in_force(road) or ego.speed_mps > rule.standing_mps
                 or not observation.junctions_ahead):

@@ -119,6 +119,11 @@ class VehicleObservation:
     """Signed distance of the centre from its lane's centre line, positive to the left (as the ego's): the
     collision causes compare the two. In SUMO with ``simulation: {centre_lateral_offsets: false}``, SUMO's lateral
     position instead, which is the front's (a vehicle turned to its lane has its centre off it)."""
+    next_edge_id: str
+    """The street its route takes after the one it is on or leaving ('' unknown or at its route's end): which
+    way it leaves the junction ahead, to predict it along."""
+    accel_mps2: float
+    """Its acceleration in the last step (negative: braking; 0 where the world does not tell)."""
 
     def to_json(self) -> dict[str, Any]:
         return _rounded(self)

@@ -211,7 +211,7 @@ class PlainWorld(WorldReadings):
                 spec.id, spec.type_id, "emergency" if spec.emergency else "passenger", m.x_m, road.lane_y_m(spec.lane),
                 0.0, m.speed_mps, m.speed_mps, 0.0, spec.lane, road.index_of(spec.lane), spec.lane, "", length,
                 length, m.x_m - road.start_x_m, offset, gap, relation, self._lanes_left_of(ego_role, spec.lane),
-                m.x_m - road.start_x_m, 0.0,
+                m.x_m - road.start_x_m, 0.0, "", 0.0,
             )
             if abs(offset) < SENSING_RANGE_M:
                 traffic.append(other)

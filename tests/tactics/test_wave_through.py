@@ -21,7 +21,7 @@ def car(x_m: float, y_m: float, heading_rad: float = math.pi / 2, speed_mps: flo
         lane_s_m: float | None = None, vehicle_id: str = "osm27.3") -> VehicleObservation:
     return VehicleObservation(vehicle_id, "car", "passenger", x_m, y_m, heading_rad, speed_mps, 0.0, 0.0,
                               ":J_6_0", 0, "", ":J_6", 4.5, 1.8, x_m, x_m - EGO_X_M, x_m - EGO_X_M - 4.85, "ahead",
-                              None, lane_s_m, 0.0)
+                              None, lane_s_m, 0.0, "", 0.0)
 
 
 def seen(time_s: float, *traffic: VehicleObservation, ego_speed_mps: float = 0.0, line_m: float = -3.0,

@@ -204,7 +204,7 @@ def observe(t: float, ego: Motion, others: dict[str, Motion], obstacles: dict[st
         traffic.append(VehicleObservation(
             other_id, "car", "passenger", ox, oy, o_heading, o_speed, o_speed * math.cos(o_heading),
             o_speed * math.sin(o_heading), f"road_{o_index}", o_index, "", "road", 4.5, 1.8, ox, offset, gap,
-            "alongside" if gap < 0 else ("ahead" if offset > 0 else "behind"), o_index - index, ox, o_lateral))
+            "alongside" if gap < 0 else ("ahead" if offset > 0 else "behind"), o_index - index, ox, o_lateral, "", 0.0))
     stopped = []
     for obstacle_id, (ox, oy) in (obstacles or {}).items():
         o_index, _ = lane_of(oy)

@@ -23,7 +23,7 @@ def emergency(vehicle_id: str, relation: str, distance_m: float, relative_lane: 
     offset = distance_m + 4.5 if relation == "ahead" else -(distance_m + 4.5)
     vehicle = VehicleObservation(
         vehicle_id, type_id, "emergency", offset, 0.0, 3.0, 20.0, 20.0, 0.0, "lane0", 1, "center", "road", 4.5, 1.8,
-        offset, offset, distance_m, relation, relative_lane, offset, 0.0,
+        offset, offset, distance_m, relation, relative_lane, offset, 0.0, "", 0.0,
     )
     return EmergencyVehicleObservation(vehicle, relation, distance_m, 5.0, distance_m / 5.0, relative_lane == 0)
 

@@ -111,6 +111,7 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading, SignalReading):
         self._speed_overrides: dict[str, float] = {}
         self._mirror_shift: dict[str, tuple[float, float]] = {}  # see move_external
         self._outlines: dict[str, tuple[float, float]] = {}  # shown outline id -> (length, width) (show_outline)
+        self._routes: dict[str, tuple[int, tuple[str, ...]]] = {}
         self.keep_route = keep_route
         self.collisions: tuple[CollisionObservation, ...] = ()
         """Collisions SUMO reported in the last step (the observation's fills in the ego's part)."""
@@ -214,5 +215,6 @@ class SumoBridge(VehicleCommands, DriverCommands, Reading, SignalReading):
             self._emergency.difference_update(self.arrived)
             for vehicle_id in self.arrived:  # an outline moved past its route's end: shown anew where needed
                 self._outlines.pop(vehicle_id, None)
+                self._routes.pop(vehicle_id, None)
         except _LIBSUMO_ERRORS as error:
             raise self._fail("stepping the simulation", error) from error

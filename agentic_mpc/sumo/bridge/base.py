@@ -12,9 +12,11 @@ from agentic_mpc.world.observation import CollisionObservation
 _LIBSUMO_ERRORS = (libsumo.TraCIException, libsumo.FatalTraCIError)
 
 # Read for every vehicle in range every step: plain ints (not ``tc.`` lookups) for the per-vehicle conversion.
-_POSITION, _ANGLE, _SPEED, _LANE_ID, _LANE_INDEX, _LANE_POS, _LANE_POS_LAT = _STATE_VARIABLES = (
+_POSITION, _ANGLE, _SPEED, _LANE_ID, _LANE_INDEX, _LANE_POS, _LANE_POS_LAT, _ROUTE_INDEX, _ACCELERATION = (
+    _STATE_VARIABLES
+) = (
     tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANE_ID, tc.VAR_LANE_INDEX, tc.VAR_LANEPOSITION,
-    tc.VAR_LANEPOSITION_LAT,
+    tc.VAR_LANEPOSITION_LAT, tc.VAR_ROUTE_INDEX, tc.VAR_ACCELERATION,
 )
 
 
@@ -36,6 +38,7 @@ class BridgeState:
     _speed_overrides: dict[str, float]
     _mirror_shift: dict[str, tuple[float, float]]  # see move_external
     _outlines: dict[str, tuple[float, float]]  # shown outline id -> its (length, width) in SUMO (show_outline)
+    _routes: dict[str, tuple[int, tuple[str, ...]]]  # id -> (the route index it was read at, its route's edges)
     collisions: tuple[CollisionObservation, ...]
     departed: tuple[str, ...]
     arrived: tuple[str, ...]

@@ -8,6 +8,7 @@ import libsumo
 from libsumo import constants as tc
 
 from agentic_mpc.sumo.bridge.base import (
+    _ACCELERATION,
     _ANGLE,
     _LANE_ID,
     _LANE_INDEX,
@@ -15,6 +16,7 @@ from agentic_mpc.sumo.bridge.base import (
     _LANE_POS_LAT,
     _LIBSUMO_ERRORS,
     _POSITION,
+    _ROUTE_INDEX,
     _SPEED,
     _STATE_VARIABLES,
     BridgeState,
@@ -63,10 +65,24 @@ class Reading(BridgeState):
         lane_id = values[_LANE_ID]
         speed = self._speed_overrides.get(vehicle_id, values[_SPEED])
         if not lane_id:  # off every lane: SUMO reports INVALID_DOUBLE/INT for the lane quantities
-            return _new_state(VehicleState, (vehicle_id, x, y, phi, speed, "", -1, math.nan, math.nan))
+            return _new_state(VehicleState, (vehicle_id, x, y, phi, speed, "", -1, math.nan, math.nan, "",
+                                             values[_ACCELERATION]))
         lateral = values[_LANE_POS_LAT]
         return _new_state(VehicleState, (vehicle_id, x, y, phi, speed, lane_id, values[_LANE_INDEX],
-                                         values[_LANE_POS], -lateral if self.lefthand else lateral))
+                                         values[_LANE_POS], -lateral if self.lefthand else lateral,
+                                         self._next_edge(vehicle_id, values[_ROUTE_INDEX]), values[_ACCELERATION]))
+
+    def _next_edge(self, vehicle_id: str, route_index: int) -> str:
+        """The edge after ``route_index`` on the vehicle's route. The route is read again only when the index
+        moves on (once per edge: SUMO keeps the index on the edge before a junction while it crosses)."""
+        cached = self._routes.get(vehicle_id)
+        if cached is None or cached[0] != route_index:
+            try:
+                cached = self._routes[vehicle_id] = (route_index, tuple(libsumo.vehicle.getRoute(vehicle_id)))
+            except _LIBSUMO_ERRORS as error:
+                raise SumoError(f"cannot read the route of {vehicle_id!r}: {_message(error)}") from error
+        route = cached[1]
+        return route[route_index + 1] if 0 <= route_index < len(route) - 1 else ""
 
     def vehicle_state(self, vehicle_id: str) -> VehicleState:
         """One vehicle's state by individual getters (for anything not subscribed)."""
@@ -81,6 +97,8 @@ class Reading(BridgeState):
                 _LANE_INDEX: v.getLaneIndex(vehicle_id),
                 _LANE_POS: v.getLanePosition(vehicle_id),
                 _LANE_POS_LAT: v.getLateralLanePosition(vehicle_id),
+                _ROUTE_INDEX: v.getRouteIndex(vehicle_id),
+                _ACCELERATION: v.getAcceleration(vehicle_id),
             }
         except _LIBSUMO_ERRORS as error:
             raise SumoError(
