@@ -56,9 +56,9 @@ def test_a_car_whose_route_turns_back_is_predicted_round_the_u_turn_not_straight
     lane = tables.net.getLane(WESTBOUND)
     ways = {c.getTo().getID() for c in lane.getOutgoing()}
     assert EASTBOUND in ways and len(ways) > 1  # a lane with several ways on
-    straight = predicted(tables, on_lane_end(tables, WESTBOUND, 1.0, "", 5.0))
-    u_turn = predicted(tables, on_lane_end(tables, WESTBOUND, 1.0, EASTBOUND, 5.0))
     start = on_lane_end(tables, WESTBOUND, 1.0, "", 5.0)
+    straight = predicted(tables, start)
+    u_turn = predicted(tables, dataclasses.replace(start, next_edge_id=EASTBOUND))
     heading_now = np.array([math.cos(start.heading_rad), math.sin(start.heading_rad)])
     # 2 s later: straight on it still heads west; round the U-turn it heads back east
     assert float(straight[1][-1] @ heading_now) > 0.99
